@@ -1,0 +1,34 @@
+// `alphorn`: render locally, run statistical test files, and drive a render farm.
+#include "cli/commands.h"
+
+#include "common/core/error.h"
+
+#include <iostream>
+
+int main(int argc, char** argv) {
+    CLI::App app{
+        "Alphorn: a physically based renderer for fog, stage light and caustics, and a render farm "
+        "that gives the same bytes on one machine or many. Scenes use the Nori XML format."};
+    app.require_subcommand(1);
+    app.set_version_flag("--version", std::string("alphorn ") + ALPHORN_VERSION);
+
+    std::vector<alphorn::cli::Command> commands;
+    commands.push_back(alphorn::cli::addRenderCommand(app));
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    }
+    try {
+        for (auto& [sub, run] : commands)
+            if (sub->parsed()) return run();
+    } catch (const alphorn::Error& e) {
+        std::cerr << "error: " << e.what() << "\n";
+        return 1;
+    } catch (const std::exception& e) {
+        std::cerr << "error: " << e.what() << "\n";
+        return 1;
+    }
+    return 2;
+}

@@ -1,0 +1,22 @@
+// Errors the user can act on. Every message names where the problem is (file, line) and what it
+// is; the CLI prints it and exits non-zero, the coordinator returns it to the client.
+#pragma once
+
+#include <absl/strings/str_format.h>
+
+#include <stdexcept>
+#include <string>
+
+namespace alphorn {
+
+class Error : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+template <typename... Args>
+[[noreturn]] void fail(const absl::FormatSpec<Args...>& format, const Args&... args) {
+    throw Error(absl::StrFormat(format, args...));
+}
+
+}  // namespace alphorn

@@ -1,0 +1,74 @@
+// The base of every scene plugin and the registry that builds plugins by XML tag and type name
+// (Nori's NoriObject and NoriObjectFactory). A plugin is one class in one file, registered with
+// ALPHORN_REGISTER(Kind, "type", Class) and constructed from a PropertyList.
+#pragma once
+
+#include "common/core/properties.h"
+
+#include <functional>
+
+namespace alphorn {
+
+enum class ObjectKind {
+    Scene,
+    Mesh,
+    BSDF,
+    Texture,
+    Medium,
+    PhaseFunction,
+    Emitter,
+    Camera,
+    Integrator,
+    Sampler,
+    Filter,
+    Test,
+};
+
+// The XML tag of a kind ("bsdf", "rfilter", ...).
+const char* kindTag(ObjectKind kind);
+
+class Object : public std::enable_shared_from_this<Object> {
+public:
+    virtual ~Object() = default;
+    virtual ObjectKind kind() const = 0;
+
+    // Receives a nested object. `name` is the child's "name" attribute (e.g. a texture's
+    // parameter, or "inside"/"outside" for media), empty when absent. The default rejects it.
+    virtual void addChild(const std::shared_ptr<Object>& child, const std::string& name);
+    // Called once all children are added: validate and precompute.
+    virtual void activate() {}
+    virtual std::string toString() const { return kindTag(kind()); }
+
+    // Where the object was written (for error messages).
+    const std::string& source() const { return m_source; }
+    void setSource(std::string source) { m_source = std::move(source); }
+
+    template <typename... Args>
+    [[noreturn]] void fail(const absl::FormatSpec<Args...>& format, const Args&... args) const {
+        throw Error(m_source + ": " + absl::StrFormat(format, args...));
+    }
+
+private:
+    std::string m_source = "<unknown>";
+};
+
+class ObjectFactory {
+public:
+    using Constructor = std::function<std::shared_ptr<Object>(const PropertyList&)>;
+
+    static bool registerClass(ObjectKind kind, const std::string& type, Constructor constructor);
+    static bool has(ObjectKind kind, const std::string& type);
+    // Builds the object; throws Error naming props.source() for an unknown type.
+    static std::shared_ptr<Object> create(ObjectKind kind, const std::string& type,
+                                          const PropertyList& props);
+    static std::vector<std::string> typesOf(ObjectKind kind);
+};
+
+#define ALPHORN_REGISTER(Kind, TypeName, Class)                                          \
+    static const bool Class##_registered = ::alphorn::ObjectFactory::registerClass(      \
+        ::alphorn::ObjectKind::Kind, TypeName,                                           \
+        [](const ::alphorn::PropertyList& props) -> std::shared_ptr<::alphorn::Object> { \
+            return std::make_shared<Class>(props);                                       \
+        })
+
+}  // namespace alphorn

@@ -1,0 +1,137 @@
+#include "common/core/properties.h"
+
+#include <filesystem>
+
+namespace alphorn {
+
+static const char* typeName(PropertyList::Type type) {
+    switch (type) {
+        case PropertyList::Type::Boolean: return "boolean";
+        case PropertyList::Type::Integer: return "integer";
+        case PropertyList::Type::Float: return "float";
+        case PropertyList::Type::String: return "string";
+        case PropertyList::Type::Color: return "color";
+        case PropertyList::Type::Point: return "point";
+        case PropertyList::Type::Vector: return "vector";
+        case PropertyList::Type::Transform: return "transform";
+    }
+    return "?";
+}
+
+void PropertyList::set(const std::string& name, Type type, Value value) {
+    if (m_values.count(name)) fail("property \"%s\" was specified more than once", name);
+    m_values.emplace(name, Entry{type, std::move(value)});
+}
+
+const PropertyList::Entry* PropertyList::find(const std::string& name, Type type) const {
+    auto it = m_values.find(name);
+    if (it == m_values.end()) return nullptr;
+    m_used.insert(name);
+    if (it->second.type != type)
+        fail("property \"%s\" has type %s, expected %s", name, typeName(it->second.type),
+             typeName(type));
+    return &it->second;
+}
+
+const PropertyList::Entry& PropertyList::get(const std::string& name, Type type) const {
+    const Entry* entry = find(name, type);
+    if (!entry) fail("missing required %s property \"%s\"", typeName(type), name);
+    return *entry;
+}
+
+void PropertyList::setBoolean(const std::string& n, bool v) { set(n, Type::Boolean, v); }
+void PropertyList::setInteger(const std::string& n, int v) { set(n, Type::Integer, v); }
+void PropertyList::setFloat(const std::string& n, float v) { set(n, Type::Float, v); }
+void PropertyList::setString(const std::string& n, const std::string& v) { set(n, Type::String, v); }
+void PropertyList::setColor(const std::string& n, const Color3f& v) { set(n, Type::Color, v); }
+void PropertyList::setPoint(const std::string& n, const Point3f& v) {
+    set(n, Type::Point, Point3f(v));
+}
+void PropertyList::setVector(const std::string& n, const Vector3f& v) {
+    set(n, Type::Vector, Point3f(v));
+}
+void PropertyList::setTransform(const std::string& n, const Transform& v) {
+    set(n, Type::Transform, v);
+}
+
+#define ALPHORN_GETTERS(Name, CppType, TypeTag, Alternative)                              \
+    CppType PropertyList::get##Name(const std::string& name) const {                      \
+        return std::get<Alternative>(get(name, Type::TypeTag).value);                     \
+    }                                                                                     \
+    CppType PropertyList::get##Name(const std::string& name, const CppType& def) const { \
+        const Entry* e = find(name, Type::TypeTag);                                       \
+        return e ? CppType(std::get<Alternative>(e->value)) : def;                        \
+    }
+
+bool PropertyList::getBoolean(const std::string& name) const {
+    return std::get<bool>(get(name, Type::Boolean).value);
+}
+bool PropertyList::getBoolean(const std::string& name, bool def) const {
+    const Entry* e = find(name, Type::Boolean);
+    return e ? std::get<bool>(e->value) : def;
+}
+int PropertyList::getInteger(const std::string& name) const {
+    return std::get<int>(get(name, Type::Integer).value);
+}
+int PropertyList::getInteger(const std::string& name, int def) const {
+    const Entry* e = find(name, Type::Integer);
+    return e ? std::get<int>(e->value) : def;
+}
+float PropertyList::getFloat(const std::string& name) const {
+    return std::get<float>(get(name, Type::Float).value);
+}
+float PropertyList::getFloat(const std::string& name, float def) const {
+    const Entry* e = find(name, Type::Float);
+    return e ? std::get<float>(e->value) : def;
+}
+ALPHORN_GETTERS(String, std::string, String, std::string)
+ALPHORN_GETTERS(Color, Color3f, Color, Color3f)
+ALPHORN_GETTERS(Point, Point3f, Point, Point3f)
+ALPHORN_GETTERS(Vector, Vector3f, Vector, Point3f)
+ALPHORN_GETTERS(Transform, Transform, Transform, Transform)
+#undef ALPHORN_GETTERS
+
+float PropertyList::getPositiveFloat(const std::string& name, float def) const {
+    float v = getFloat(name, def);
+    if (!(v > 0.0f) || !std::isfinite(v)) fail("\"%s\" must be a positive number, got %g", name, v);
+    return v;
+}
+
+float PropertyList::getNonNegativeFloat(const std::string& name, float def) const {
+    float v = getFloat(name, def);
+    if (!(v >= 0.0f) || !std::isfinite(v))
+        fail("\"%s\" must be a finite number >= 0, got %g", name, v);
+    return v;
+}
+
+int PropertyList::getPositiveInteger(const std::string& name, int def) const {
+    int v = getInteger(name, def);
+    if (v <= 0) fail("\"%s\" must be a positive integer, got %d", name, v);
+    return v;
+}
+
+Color3f PropertyList::getNonNegativeColor(const std::string& name, const Color3f& def) const {
+    Color3f c = getColor(name, def);
+    for (int i = 0; i < 3; ++i)
+        if (!(c[i] >= 0.0f) || !std::isfinite(c[i]))
+            fail("\"%s\" must have finite components >= 0, got %s", name, c.toString());
+    return c;
+}
+
+std::vector<std::string> PropertyList::unusedNames() const {
+    std::vector<std::string> unused;
+    for (const auto& [name, entry] : m_values)
+        if (!m_used.count(name)) unused.push_back(name);
+    return unused;
+}
+
+std::string PropertyList::resolvePath(const std::string& path) const {
+    std::filesystem::path p(path);
+    std::string resolved = p.is_absolute() || m_baseDirectory.empty()
+                               ? p.lexically_normal().string()
+                               : (std::filesystem::path(m_baseDirectory) / p).lexically_normal().string();
+    if (m_dependencies) m_dependencies->push_back(resolved);
+    return resolved;
+}
+
+}  // namespace alphorn

@@ -1,0 +1,94 @@
+// The typed property list a plugin is built from (Nori's PropertyList). It remembers where it
+// was written (file and line) so that a plugin can report a bad value where the user can find it,
+// and which properties were read so the parser can warn about misspelt names.
+#pragma once
+
+#include "common/core/color.h"
+#include "common/core/error.h"
+#include "common/core/transform.h"
+
+#include <map>
+#include <set>
+#include <variant>
+
+namespace alphorn {
+
+class PropertyList {
+public:
+    enum class Type { Boolean, Integer, Float, String, Color, Point, Vector, Transform };
+
+    PropertyList() = default;
+    explicit PropertyList(std::string source) : m_source(std::move(source)) {}
+
+    void setBoolean(const std::string& name, bool value);
+    void setInteger(const std::string& name, int value);
+    void setFloat(const std::string& name, float value);
+    void setString(const std::string& name, const std::string& value);
+    void setColor(const std::string& name, const Color3f& value);
+    void setPoint(const std::string& name, const Point3f& value);
+    void setVector(const std::string& name, const Vector3f& value);
+    void setTransform(const std::string& name, const Transform& value);
+
+    // Getters without a default throw if the property is missing; all throw on a type mismatch.
+    bool getBoolean(const std::string& name) const;
+    bool getBoolean(const std::string& name, bool defaultValue) const;
+    int getInteger(const std::string& name) const;
+    int getInteger(const std::string& name, int defaultValue) const;
+    float getFloat(const std::string& name) const;
+    float getFloat(const std::string& name, float defaultValue) const;
+    std::string getString(const std::string& name) const;
+    std::string getString(const std::string& name, const std::string& defaultValue) const;
+    Color3f getColor(const std::string& name) const;
+    Color3f getColor(const std::string& name, const Color3f& defaultValue) const;
+    Point3f getPoint(const std::string& name) const;
+    Point3f getPoint(const std::string& name, const Point3f& defaultValue) const;
+    Vector3f getVector(const std::string& name) const;
+    Vector3f getVector(const std::string& name, const Vector3f& defaultValue) const;
+    Transform getTransform(const std::string& name) const;
+    Transform getTransform(const std::string& name, const Transform& defaultValue) const;
+
+    // Validated getters for the common constraints; the error names the source location.
+    float getPositiveFloat(const std::string& name, float defaultValue) const;
+    float getNonNegativeFloat(const std::string& name, float defaultValue) const;
+    int getPositiveInteger(const std::string& name, int defaultValue) const;
+    Color3f getNonNegativeColor(const std::string& name, const Color3f& defaultValue) const;
+
+    bool has(const std::string& name) const { return m_values.count(name) != 0; }
+    std::vector<std::string> unusedNames() const;
+
+    // Where this list was written, e.g. "scene.xml:12 (bsdf type=\"diffuse\")".
+    const std::string& source() const { return m_source; }
+    void setSource(std::string source) { m_source = std::move(source); }
+    // The directory of the scene file, for resolving relative paths.
+    const std::string& baseDirectory() const { return m_baseDirectory; }
+    void setBaseDirectory(std::string dir) { m_baseDirectory = std::move(dir); }
+    // Resolves a relative path against the scene file's directory and records it as a file
+    // the scene depends on (the CLI uploads exactly these with the scene).
+    std::string resolvePath(const std::string& path) const;
+    void setDependencyLog(std::shared_ptr<std::vector<std::string>> log) {
+        m_dependencies = std::move(log);
+    }
+
+    template <typename... Args>
+    [[noreturn]] void fail(const absl::FormatSpec<Args...>& format, const Args&... args) const {
+        throw Error(m_source + ": " + absl::StrFormat(format, args...));
+    }
+
+private:
+    using Value = std::variant<bool, int, float, std::string, Color3f, Point3f, Transform>;
+    struct Entry {
+        Type type;
+        Value value;
+    };
+    void set(const std::string& name, Type type, Value value);
+    const Entry* find(const std::string& name, Type type) const;
+    const Entry& get(const std::string& name, Type type) const;
+
+    std::map<std::string, Entry> m_values;
+    mutable std::set<std::string> m_used;
+    std::string m_source = "<unknown>";
+    std::string m_baseDirectory;
+    std::shared_ptr<std::vector<std::string>> m_dependencies;
+};
+
+}  // namespace alphorn

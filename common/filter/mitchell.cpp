@@ -1,0 +1,33 @@
+// <rfilter type="mitchell">: the Mitchell-Netravali cubic (Nori's defaults B = C = 1/3,
+// radius 2).
+#include "common/filter/rfilter.h"
+
+namespace alphorn {
+
+class MitchellNetravaliFilter : public ReconstructionFilter {
+public:
+    explicit MitchellNetravaliFilter(const PropertyList& props) {
+        m_radius = validatedRadius(props, 2.0f);
+        m_B = props.getFloat("B", 1.0f / 3.0f);
+        m_C = props.getFloat("C", 1.0f / 3.0f);
+    }
+    float eval(float x) const override {
+        x = std::abs(2.0f * x / m_radius);
+        float x2 = x * x, x3 = x2 * x;
+        if (x < 1.0f)
+            return 1.0f / 6.0f *
+                   ((12 - 9 * m_B - 6 * m_C) * x3 + (-18 + 12 * m_B + 6 * m_C) * x2 + (6 - 2 * m_B));
+        if (x < 2.0f)
+            return 1.0f / 6.0f *
+                   ((-m_B - 6 * m_C) * x3 + (6 * m_B + 30 * m_C) * x2 + (-12 * m_B - 48 * m_C) * x +
+                    (8 * m_B + 24 * m_C));
+        return 0.0f;
+    }
+
+private:
+    float m_B, m_C;
+};
+
+ALPHORN_REGISTER(Filter, "mitchell", MitchellNetravaliFilter);
+
+}  // namespace alphorn

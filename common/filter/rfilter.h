@@ -1,0 +1,20 @@
+// Pixel reconstruction filters (Nori's). A sample at image position x contributes to every pixel
+// whose centre lies within radius(); the 2D weight is eval(dx) * eval(dy).
+#pragma once
+
+#include "common/core/object.h"
+
+namespace alphorn {
+
+class ReconstructionFilter : public Object {
+public:
+    ObjectKind kind() const override { return ObjectKind::Filter; }
+    float radius() const { return m_radius; }
+    virtual float eval(float x) const = 0;
+
+protected:
+    static float validatedRadius(const PropertyList& props, float defaultRadius);
+    float m_radius = 0.5f;
+};
+
+}  // namespace alphorn

@@ -1,0 +1,36 @@
+// Integrators estimate the radiance arriving along a camera ray. A render is a sum of passes;
+// integrators that share work among all pixels of a pass (photon maps) build it in
+// preparePass(), which every tile of that pass then reads.
+#pragma once
+
+#include "common/core/color.h"
+#include "common/core/object.h"
+#include "common/core/ray.h"
+
+namespace alphorn {
+
+class Scene;
+class Sampler;
+
+// Per-pass state shared by all tiles of one pass (e.g. that pass's photon maps and radius).
+struct PassData {
+    virtual ~PassData() = default;
+};
+
+class Integrator : public Object {
+public:
+    ObjectKind kind() const override { return ObjectKind::Integrator; }
+
+    // Once per scene, after loading.
+    virtual void preprocess(const Scene&) {}
+    // Once per pass; the result must be a pure function of (scene, seed, pass).
+    virtual std::shared_ptr<const PassData> preparePass(const Scene&, uint64_t /*seed*/,
+                                                        uint64_t /*pass*/) const {
+        return nullptr;
+    }
+    // Radiance along `ray`; `pass` is what preparePass returned for the current pass.
+    virtual Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,
+                       const PassData* pass) const = 0;
+};
+
+}  // namespace alphorn

@@ -1,0 +1,101 @@
+// Exact, order-independent accumulation of filtered samples.
+//
+// A sample's filtered contribution (weight w, and w times radiance per channel) is rounded once
+// to a 128-bit fixed-point integer with 40 fractional bits, and from then on only integer sums
+// are formed. Integer addition is associative, so the image does not depend on the order in
+// which threads, tiles or workers add their parts: this is how a render on one machine, on two
+// workers, or with a worker killed midway gives the same bytes (DESIGN.md, promise 1; see
+// docs/architecture.md for why this beats a canonical merge order).
+#pragma once
+
+#include "common/core/color.h"
+
+#include <string>
+#include <vector>
+
+namespace alphorn {
+
+using FixedPoint = __int128;
+
+inline constexpr double kFixedPointScale = 0x1p40;
+// |contribution| above this would overflow after summing ~2^40 samples; such samples are
+// counted as invalid rather than silently clamped.
+inline constexpr double kFixedPointLimit = 0x1p46;
+
+struct PixelSum {
+    FixedPoint rgb[3] = {0, 0, 0};
+    FixedPoint weight = 0;
+
+    PixelSum& operator+=(const PixelSum& o) {
+        for (int c = 0; c < 3; ++c) rgb[c] += o.rgb[c];
+        weight += o.weight;
+        return *this;
+    }
+};
+
+inline FixedPoint toFixedPoint(double value) {
+    return static_cast<FixedPoint>(std::nearbyint(value * kFixedPointScale));
+}
+inline double fromFixedPoint(FixedPoint value) {
+    return static_cast<double>(value) / kFixedPointScale;
+}
+
+// A rectangle of pixel sums: [x0, x0 + width) x [y0, y0 + height) in image pixels. The
+// rectangle may reach outside the image (a tile plus its filter border).
+class FilmBlock {
+public:
+    FilmBlock() = default;
+    FilmBlock(int x0, int y0, int width, int height);
+
+    int x0() const { return m_x0; }
+    int y0() const { return m_y0; }
+    int width() const { return m_width; }
+    int height() const { return m_height; }
+
+    PixelSum& at(int x, int y) { return m_pixels[(y - m_y0) * m_width + (x - m_x0)]; }
+    const PixelSum& at(int x, int y) const { return m_pixels[(y - m_y0) * m_width + (x - m_x0)]; }
+    bool contains(int x, int y) const {
+        return x >= m_x0 && y >= m_y0 && x < m_x0 + m_width && y < m_y0 + m_height;
+    }
+
+    // Adds the overlapping part of another block (exact, so any order gives the same sums).
+    void add(const FilmBlock& other);
+    void clear();
+
+    // Raw little-endian bytes of the sums, for checkpoints and the wire.
+    std::string serialize() const;
+    // Throws Error when the bytes do not describe a block of this shape.
+    void deserialize(const std::string& bytes);
+
+    // Samples rejected as NaN, infinite or beyond the fixed-point range (never clamped).
+    uint64_t invalidSamples = 0;
+
+private:
+    int m_x0 = 0, m_y0 = 0, m_width = 0, m_height = 0;
+    std::vector<PixelSum> m_pixels;
+};
+
+// A float RGB image, rows top to bottom.
+struct Image {
+    int width = 0, height = 0;
+    std::vector<float> rgb;  // 3 floats per pixel
+
+    Image() = default;
+    Image(int w, int h) : width(w), height(h), rgb(3 * size_t(w) * h, 0.0f) {}
+    Color3f get(int x, int y) const {
+        const float* p = &rgb[3 * (size_t(y) * width + x)];
+        return Color3f(p[0], p[1], p[2]);
+    }
+    void set(int x, int y, const Color3f& c) {
+        float* p = &rgb[3 * (size_t(y) * width + x)];
+        p[0] = c.r();
+        p[1] = c.g();
+        p[2] = c.b();
+    }
+};
+
+// Resolves sums into an image: each pixel is sum(w L) / sum(w), computed in double from the
+// exact integers and rounded once to float. Pixels with no weight are black.
+Image resolveImage(const FilmBlock& film, int width, int height);
+
+}  // namespace alphorn

@@ -1,0 +1,149 @@
+#include "common/render/image_io.h"
+
+#include "common/core/error.h"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfOutputFile.h>
+#include <png.h>
+
+#include <cstdio>
+#include <filesystem>
+
+namespace alphorn {
+
+void writeEXR(const std::string& path, const Image& image) {
+    try {
+        Imf::Header header(image.width, image.height);
+        header.compression() = Imf::ZIP_COMPRESSION;
+        for (const char* name : {"R", "G", "B"}) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+        Imf::FrameBuffer frame;
+        const size_t xStride = 3 * sizeof(float), yStride = xStride * image.width;
+        char* base = reinterpret_cast<char*>(const_cast<float*>(image.rgb.data()));
+        frame.insert("R", Imf::Slice(Imf::FLOAT, base, xStride, yStride));
+        frame.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xStride, yStride));
+        frame.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xStride, yStride));
+        Imf::OutputFile file(path.c_str(), header);
+        file.setFrameBuffer(frame);
+        file.writePixels(image.height);
+    } catch (const std::exception& e) {
+        fail("%s: cannot write EXR: %s", path, e.what());
+    }
+}
+
+Image readEXR(const std::string& path) {
+    try {
+        Imf::InputFile file(path.c_str());
+        Imath::Box2i window = file.header().dataWindow();
+        int width = window.max.x - window.min.x + 1, height = window.max.y - window.min.y + 1;
+        Image image(width, height);
+        const size_t xStride = 3 * sizeof(float), yStride = xStride * width;
+        char* base = reinterpret_cast<char*>(image.rgb.data()) -
+                     (window.min.x * xStride + window.min.y * yStride);
+        Imf::FrameBuffer frame;
+        frame.insert("R", Imf::Slice(Imf::FLOAT, base, xStride, yStride, 1, 1, 0.0));
+        frame.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xStride, yStride, 1, 1, 0.0));
+        frame.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xStride, yStride, 1, 1, 0.0));
+        file.setFrameBuffer(frame);
+        file.readPixels(window.min.y, window.max.y);
+        return image;
+    } catch (const std::exception& e) {
+        fail("%s: cannot read EXR: %s", path, e.what());
+    }
+}
+
+namespace {
+struct FileCloser {
+    void operator()(FILE* f) const {
+        if (f) std::fclose(f);
+    }
+};
+using FilePtr = std::unique_ptr<FILE, FileCloser>;
+
+[[noreturn]] void pngError(png_structp png, png_const_charp message) {
+    auto* text = static_cast<std::string*>(png_get_error_ptr(png));
+    *text = message;
+    png_longjmp(png, 1);
+}
+void pngWarning(png_structp, png_const_charp) {}
+}  // namespace
+
+void writePNG(const std::string& path, const Image& image, float exposure) {
+    FilePtr file(std::fopen(path.c_str(), "wb"));
+    if (!file) fail("%s: cannot write PNG: %s", path, std::strerror(errno));
+    const float scale = std::exp2(exposure);
+    std::vector<uint8_t> pixels(3 * size_t(image.width) * image.height);
+    for (size_t i = 0; i < pixels.size(); ++i) {
+        float v = image.rgb[i] * scale;
+        v = std::isfinite(v) ? clamp(v, 0.0f, 1.0f) : 0.0f;
+        Color3f encoded = Color3f(v).toSRGB();
+        pixels[i] = static_cast<uint8_t>(std::lround(encoded.r() * 255.0f));
+    }
+    std::string error;
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &error, pngError, pngWarning);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    if (!png || !info) {
+        png_destroy_write_struct(&png, nullptr);
+        fail("%s: cannot write PNG: out of memory", path);
+    }
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_write_struct(&png, &info);
+        fail("%s: cannot write PNG: %s", path, error);
+    }
+    png_init_io(png, file.get());
+    png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+    png_write_info(png, info);
+    for (int y = 0; y < image.height; ++y)
+        png_write_row(png, &pixels[3 * size_t(y) * image.width]);
+    png_write_end(png, nullptr);
+    png_destroy_write_struct(&png, &info);
+}
+
+Image readPNG(const std::string& path) {
+    FilePtr file(std::fopen(path.c_str(), "rb"));
+    if (!file) fail("%s: cannot read PNG: %s", path, std::strerror(errno));
+    std::string error;
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &error, pngError, pngWarning);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    if (!png || !info) {
+        png_destroy_read_struct(&png, nullptr, nullptr);
+        fail("%s: cannot read PNG: out of memory", path);
+    }
+    Image image;
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_read_struct(&png, &info, nullptr);
+        fail("%s: cannot read PNG: %s", path, error);
+    }
+    png_init_io(png, file.get());
+    png_read_info(png, info);
+    // Normalise every PNG flavour to 8-bit RGB.
+    png_set_strip_16(png);
+    png_set_strip_alpha(png);
+    png_set_palette_to_rgb(png);
+    png_set_expand_gray_1_2_4_to_8(png);
+    png_set_gray_to_rgb(png);
+    png_read_update_info(png, info);
+    const int width = static_cast<int>(png_get_image_width(png, info));
+    const int height = static_cast<int>(png_get_image_height(png, info));
+    std::vector<uint8_t> row(png_get_rowbytes(png, info));
+    image = Image(width, height);
+    for (int y = 0; y < height; ++y) {
+        png_read_row(png, row.data(), nullptr);
+        for (int x = 0; x < width; ++x)
+            image.set(x, y,
+                      Color3f(row[3 * x] / 255.0f, row[3 * x + 1] / 255.0f, row[3 * x + 2] / 255.0f)
+                          .toLinearRGB());
+    }
+    png_destroy_read_struct(&png, &info, nullptr);
+    return image;
+}
+
+std::string pngPathFor(const std::string& exrPath) {
+    return std::filesystem::path(exrPath).replace_extension(".png").string();
+}
+
+}  // namespace alphorn

@@ -1,0 +1,33 @@
+// Rendering a whole job in this process: the same units, the same renderUnit() and the same
+// exact merge as the farm, without sockets ("a coordinator and a worker in one process").
+#pragma once
+
+#include "common/render/unit.h"
+
+#include <functional>
+
+namespace alphorn {
+
+struct RenderSettings {
+    uint64_t seed = 0;
+    uint32_t passes = 1;
+    int tileSize = 64;
+    uint32_t passesPerUnit = 1;
+};
+
+struct RenderStatus {
+    uint32_t passesDone = 0;
+    uint32_t passesTotal = 0;
+    uint64_t samplesDone = 0;
+    uint64_t samplesTotal = 0;
+    uint64_t rays = 0;
+};
+
+// Called from the rendering thread after each chunk of passes.
+using ProgressCallback = std::function<void(const RenderStatus&)>;
+
+// Renders all passes and returns the film over the whole image.
+FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
+                      const ProgressCallback& progress = {}, RenderCounters* counters = nullptr);
+
+}  // namespace alphorn

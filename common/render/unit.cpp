@@ -1,0 +1,128 @@
+#include "common/render/unit.h"
+
+#include "common/scene/scene.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <mutex>
+
+namespace alphorn {
+
+std::vector<Tile> makeTiles(int width, int height, int tileSize) {
+    if (tileSize <= 0) fail("tile size must be positive, got %d", tileSize);
+    std::vector<Tile> tiles;
+    for (int y = 0; y < height; y += tileSize)
+        for (int x = 0; x < width; x += tileSize)
+            tiles.push_back(Tile{x, y, std::min(x + tileSize, width), std::min(y + tileSize, height)});
+    return tiles;
+}
+
+static int filterBorder(const Scene& scene) {
+    return static_cast<int>(std::ceil(scene.camera()->filter()->radius() + 0.5f));
+}
+
+FilmBlock makeUnitBlock(const Scene& scene, const Tile& tile) {
+    int border = filterBorder(scene);
+    return FilmBlock(tile.x0 - border, tile.y0 - border, tile.width() + 2 * border,
+                     tile.height() + 2 * border);
+}
+
+std::vector<std::shared_ptr<const PassData>> preparePasses(const Scene& scene, uint64_t seed,
+                                                           uint32_t begin, uint32_t end) {
+    std::vector<std::shared_ptr<const PassData>> data;
+    data.reserve(end - begin);
+    for (uint32_t pass = begin; pass < end; ++pass)
+        data.push_back(scene.integrator()->preparePass(scene, seed, pass));
+    return data;
+}
+
+namespace {
+
+// Splats one sample into the block with the camera's filter (Nori's ImageBlock::put: pixel
+// centres sit at integer + 0.5). Rejected samples are counted, never clamped.
+void splat(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
+           const Color3f& value) {
+    if (!value.isValid() || value.maxCoeff() > kFixedPointLimit) {
+        ++block.invalidSamples;
+        return;
+    }
+    const float radius = filter.radius();
+    const float px = position.x() - 0.5f, py = position.y() - 0.5f;
+    const int xBegin = static_cast<int>(std::ceil(px - radius));
+    const int xEnd = static_cast<int>(std::floor(px + radius));
+    const int yBegin = static_cast<int>(std::ceil(py - radius));
+    const int yEnd = static_cast<int>(std::floor(py + radius));
+    float wx[16];
+    const int nx = std::min(16, xEnd - xBegin + 1);
+    for (int i = 0; i < nx; ++i) wx[i] = filter.eval(static_cast<float>(xBegin + i) - px);
+    for (int y = yBegin; y <= yEnd; ++y) {
+        const float wy = filter.eval(static_cast<float>(y) - py);
+        for (int i = 0; i < nx; ++i) {
+            const int x = xBegin + i;
+            const float w = wx[i] * wy;
+            if (w == 0.0f || !block.contains(x, y)) continue;
+            PixelSum& sum = block.at(x, y);
+            for (int c = 0; c < 3; ++c) sum.rgb[c] += toFixedPoint(double(w) * double(value[c]));
+            sum.weight += toFixedPoint(w);
+        }
+    }
+}
+
+}  // namespace
+
+bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
+                const std::vector<std::shared_ptr<const PassData>>& passData, FilmBlock& out,
+                RenderCounters* counters, const std::atomic<bool>* cancel) {
+    const Camera& camera = *scene.camera();
+    const Integrator& integrator = *scene.integrator();
+    const ReconstructionFilter& filter = *camera.filter();
+    const Tile& tile = unit.tile;
+    const int width = camera.outputSize().x();
+    const size_t rows = static_cast<size_t>(tile.height());
+    const size_t passes = unit.passEnd - unit.passBegin;
+    if (passData.size() != passes) fail("renderUnit: pass data for %zu passes, expected %zu", passData.size(), passes);
+    std::mutex outMutex;
+    std::atomic<bool> cancelled{false};
+
+    // Work items are (pass, row) pairs. Each task renders into its own block and adds it to
+    // `out` exactly, so the partitioning chosen by TBB cannot change the result.
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, passes * rows), [&](const tbb::blocked_range<size_t>& range) {
+        FilmBlock local(out.x0(), out.y0(), out.width(), out.height());
+        std::unique_ptr<Sampler> sampler = scene.sampler()->clone();
+        const uint64_t raysBefore = raysTracedByThisThread();
+        uint64_t samples = 0;
+        for (size_t item = range.begin(); item != range.end(); ++item) {
+            if (cancel && cancel->load(std::memory_order_relaxed)) {
+                cancelled = true;
+                break;
+            }
+            const size_t passOffset = item / rows;
+            const uint32_t pass = unit.passBegin + static_cast<uint32_t>(passOffset);
+            const int y = tile.y0 + static_cast<int>(item % rows);
+            const PassData* data = passData[passOffset].get();
+            for (int x = tile.x0; x < tile.x1; ++x) {
+                const uint64_t pixelIndex = static_cast<uint64_t>(y) * width + x;
+                sampler->startStream(seed, pass, pixelIndex, StreamPurpose::Camera);
+                const Point2f pixelSample = Point2f(float(x), float(y)) + sampler->next2D();
+                const Point2f apertureSample = sampler->next2D();
+                Ray3f ray;
+                Color3f value = camera.sampleRay(ray, pixelSample, apertureSample);
+                if (!value.isBlack()) value *= integrator.Li(scene, *sampler, ray, data);
+                splat(local, filter, pixelSample, value);
+            }
+            samples += static_cast<uint64_t>(tile.width());
+        }
+        {
+            std::lock_guard lock(outMutex);
+            out.add(local);
+        }
+        if (counters) {
+            counters->samples += samples;
+            counters->rays += raysTracedByThisThread() - raysBefore;
+        }
+    });
+    return !cancelled;
+}
+
+}  // namespace alphorn

@@ -1,0 +1,51 @@
+// The one function that renders a unit of work. The local renderer and the farm worker both
+// call renderUnit(); nothing else turns camera rays into film sums.
+#pragma once
+
+#include "common/integrator/integrator.h"
+#include "common/render/film.h"
+
+#include <atomic>
+
+namespace alphorn {
+
+class Scene;
+
+// A rectangle of pixels [x0, x1) x [y0, y1).
+struct Tile {
+    int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    int width() const { return x1 - x0; }
+    int height() const { return y1 - y0; }
+    bool operator==(const Tile&) const = default;
+};
+
+// A unit: passes [passBegin, passEnd) over one tile. Passes are numbered from 0.
+struct RenderUnit {
+    uint32_t passBegin = 0, passEnd = 0;
+    Tile tile;
+};
+
+// The tiles of an image in row-major order; edge tiles are smaller.
+std::vector<Tile> makeTiles(int width, int height, int tileSize);
+
+// The film block a unit writes: its tile grown by the reconstruction filter's reach.
+FilmBlock makeUnitBlock(const Scene& scene, const Tile& tile);
+
+// Counters a caller can poll while a unit renders (progress, Mrays/s).
+struct RenderCounters {
+    std::atomic<uint64_t> samples{0};  // camera samples finished
+    std::atomic<uint64_t> rays{0};     // rays traced (closest-hit and shadow)
+};
+
+// The per-pass data (photon maps, ...) of passes [begin, end), built in pass order.
+std::vector<std::shared_ptr<const PassData>> preparePasses(const Scene& scene, uint64_t seed,
+                                                           uint32_t begin, uint32_t end);
+
+// Renders `unit` and adds its samples into `out` (which must come from makeUnitBlock).
+// passData[i] belongs to pass unit.passBegin + i. Returns false if cancelled midway, in which
+// case `out` holds a partial result that must be discarded.
+bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
+                const std::vector<std::shared_ptr<const PassData>>& passData, FilmBlock& out,
+                RenderCounters* counters = nullptr, const std::atomic<bool>* cancel = nullptr);
+
+}  // namespace alphorn

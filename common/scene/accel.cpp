@@ -1,0 +1,97 @@
+#include "common/scene/accel.h"
+
+#include "common/core/error.h"
+
+namespace alphorn {
+
+static thread_local uint64_t t_rayCount = 0;
+
+uint64_t raysTracedByThisThread() { return t_rayCount; }
+
+Accel::~Accel() { release(); }
+
+void Accel::release() {
+    if (m_scene) rtcReleaseScene(m_scene);
+    if (m_device) rtcReleaseDevice(m_device);
+    m_scene = nullptr;
+    m_device = nullptr;
+}
+
+void Accel::build(const std::vector<std::shared_ptr<Mesh>>& meshes) {
+    release();
+    // Embree's own threads would compete with oneTBB's pool; one thread builds deterministically.
+    m_device = rtcNewDevice("threads=1");
+    if (!m_device) fail("Embree could not create a device (error %d)", rtcGetDeviceError(nullptr));
+    m_scene = rtcNewScene(m_device);
+    rtcSetSceneBuildQuality(m_scene, RTC_BUILD_QUALITY_HIGH);
+    m_meshes.clear();
+    m_bounds.setEmpty();
+    for (const auto& mesh : meshes) {
+        if (mesh->triangleCount() == 0) continue;
+        RTCGeometry geometry = rtcNewGeometry(m_device, RTC_GEOMETRY_TYPE_TRIANGLE);
+        float* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
+            geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+            mesh->vertexCount()));
+        std::copy_n(mesh->positions().data(), 3 * mesh->vertexCount(), vertices);
+        uint32_t* indices = static_cast<uint32_t*>(
+            rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                    3 * sizeof(uint32_t), mesh->triangleCount()));
+        std::copy_n(mesh->faces().data(), 3 * mesh->triangleCount(), indices);
+        rtcCommitGeometry(geometry);
+        unsigned id = rtcAttachGeometry(m_scene, geometry);
+        rtcReleaseGeometry(geometry);
+        if (id != m_meshes.size()) fail("Embree assigned an unexpected geometry id");
+        m_meshes.push_back(mesh.get());
+        m_bounds.extend(mesh->bounds());
+    }
+    rtcCommitScene(m_scene);
+    RTCError error = rtcGetDeviceError(m_device);
+    if (error != RTC_ERROR_NONE) fail("Embree failed to build the scene BVH (error %d)", error);
+}
+
+static RTCRay toEmbree(const Ray3f& ray) {
+    RTCRay r;
+    r.org_x = ray.o.x();
+    r.org_y = ray.o.y();
+    r.org_z = ray.o.z();
+    r.dir_x = ray.d.x();
+    r.dir_y = ray.d.y();
+    r.dir_z = ray.d.z();
+    r.tnear = ray.mint;
+    r.tfar = ray.maxt;
+    r.time = 0.0f;
+    r.mask = 0xffffffffu;
+    r.id = 0;
+    r.flags = 0;
+    return r;
+}
+
+bool Accel::intersect(const Ray3f& ray, Intersection& its) const {
+    ++t_rayCount;
+    if (m_meshes.empty()) return false;
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    RTCRayHit rayhit;
+    rayhit.ray = toEmbree(ray);
+    rayhit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rayhit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(m_scene, &context, &rayhit);
+    if (rayhit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
+    its.t = rayhit.ray.tfar;
+    m_meshes[rayhit.hit.geomID]->fillIntersection(rayhit.hit.primID, rayhit.hit.u, rayhit.hit.v,
+                                                   its);
+    return true;
+}
+
+bool Accel::occluded(const Ray3f& ray) const {
+    ++t_rayCount;
+    if (m_meshes.empty()) return false;
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    RTCRay r = toEmbree(ray);
+    rtcOccluded1(m_scene, &context, &r);
+    // Embree marks an occluded ray by setting tfar to -inf.
+    return r.tfar < 0.0f;
+}
+
+}  // namespace alphorn

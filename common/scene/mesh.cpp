@@ -1,0 +1,106 @@
+#include "common/scene/mesh.h"
+
+#include "common/bsdf/bsdf.h"
+#include "common/core/warp.h"
+#include "common/emitter/emitter.h"
+
+#include <absl/strings/str_format.h>
+
+namespace alphorn {
+
+void Mesh::setGeometry(Eigen::Matrix<float, 3, Eigen::Dynamic> positions,
+                       Eigen::Matrix<float, 3, Eigen::Dynamic> normals,
+                       Eigen::Matrix<float, 2, Eigen::Dynamic> uvs,
+                       Eigen::Matrix<uint32_t, 3, Eigen::Dynamic> faces) {
+    m_positions = std::move(positions);
+    m_normals = std::move(normals);
+    m_uvs = std::move(uvs);
+    m_faces = std::move(faces);
+    m_areaPdf.clear();
+    m_areaPdf.reserve(triangleCount());
+    for (uint32_t i = 0; i < triangleCount(); ++i) m_areaPdf.append(triangleArea(i));
+    m_surfaceArea = static_cast<float>(m_areaPdf.normalize());
+}
+
+void Mesh::addChild(const std::shared_ptr<Object>& child, const std::string& name) {
+    switch (child->kind()) {
+        case ObjectKind::BSDF:
+            if (m_bsdf) fail("the mesh has more than one BSDF");
+            m_bsdf = std::static_pointer_cast<BSDF>(child);
+            break;
+        case ObjectKind::Emitter:
+            if (m_emitter) fail("the mesh has more than one emitter");
+            m_emitter = std::static_pointer_cast<Emitter>(child);
+            m_emitter->setMesh(this);
+            break;
+        default: Object::addChild(child, name);
+    }
+}
+
+void Mesh::activate() {
+    if (!m_bsdf) {
+        // Nori's default: a diffuse BSDF of albedo 0.5.
+        PropertyList props(source() + " (default bsdf)");
+        m_bsdf = std::static_pointer_cast<BSDF>(
+            ObjectFactory::create(ObjectKind::BSDF, "diffuse", props));
+        m_bsdf->activate();
+    }
+    if (m_emitter && !(m_surfaceArea > 0.0f))
+        fail("the mesh carries an area emitter but has zero surface area");
+}
+
+float Mesh::triangleArea(uint32_t index) const {
+    const Point3f& p0 = m_positions.col(m_faces(0, index));
+    const Point3f& p1 = m_positions.col(m_faces(1, index));
+    const Point3f& p2 = m_positions.col(m_faces(2, index));
+    return 0.5f * (p1 - p0).cross(p2 - p0).norm();
+}
+
+Eigen::AlignedBox3f Mesh::bounds() const {
+    Eigen::AlignedBox3f box;
+    for (uint32_t i = 0; i < vertexCount(); ++i) box.extend(Vector3f(m_positions.col(i)));
+    return box;
+}
+
+void Mesh::fillIntersection(uint32_t triangle, float u, float v, Intersection& its) const {
+    const uint32_t i0 = m_faces(0, triangle), i1 = m_faces(1, triangle), i2 = m_faces(2, triangle);
+    const float w = 1.0f - u - v;
+    const Point3f p0 = m_positions.col(i0), p1 = m_positions.col(i1), p2 = m_positions.col(i2);
+    its.mesh = this;
+    its.triangle = triangle;
+    its.p = w * p0 + u * p1 + v * p2;
+    if (m_uvs.cols() > 0)
+        its.uv = w * m_uvs.col(i0) + u * m_uvs.col(i1) + v * m_uvs.col(i2);
+    else
+        its.uv = Point2f(u, v);
+
+    Vector3f geometric = (p1 - p0).cross(p2 - p0);
+    float length = geometric.norm();
+    // Degenerate triangles still get a valid frame so nothing downstream divides by zero.
+    geometric = length > 0.0f ? Vector3f(geometric / length) : Vector3f::UnitZ();
+    its.geoFrame = Frame(geometric);
+
+    if (m_normals.cols() > 0) {
+        Vector3f n = w * m_normals.col(i0) + u * m_normals.col(i1) + v * m_normals.col(i2);
+        float nl = n.norm();
+        its.shFrame = nl > 0.0f && std::isfinite(nl) ? Frame(Vector3f(n / nl)) : its.geoFrame;
+    } else {
+        its.shFrame = its.geoFrame;
+    }
+}
+
+SurfaceSample Mesh::sampleSurface(const Point2f& sample) const {
+    float u = sample.x();
+    uint32_t triangle = static_cast<uint32_t>(m_areaPdf.sampleReuse(u));
+    Point2f bary = warp::squareToUniformTriangle(Point2f(u, sample.y()));
+    Intersection its;
+    fillIntersection(triangle, bary.x(), bary.y(), its);
+    return SurfaceSample{its.p, its.shFrame.n, its.uv, 1.0f / m_surfaceArea};
+}
+
+std::string Mesh::toString() const {
+    return absl::StrFormat("mesh \"%s\" (%u vertices, %u triangles)", m_name, vertexCount(),
+                           triangleCount());
+}
+
+}  // namespace alphorn

@@ -1,0 +1,86 @@
+// Triangle meshes (Nori's Mesh): vertex positions, optional normals and uvs, a BSDF, and an
+// optional area emitter.
+#pragma once
+
+#include "common/core/dpdf.h"
+#include "common/core/frame.h"
+#include "common/core/object.h"
+
+namespace alphorn {
+
+class BSDF;
+class Emitter;
+class Mesh;
+
+// A ray-surface hit.
+struct Intersection {
+    Point3f p = Point3f::Zero();
+    float t = Infinity;
+    Point2f uv = Point2f::Zero();
+    Frame shFrame;   // shading frame (interpolated normal)
+    Frame geoFrame;  // geometric frame (true triangle normal)
+    const Mesh* mesh = nullptr;
+    uint32_t triangle = 0;
+
+    Vector3f toLocal(const Vector3f& d) const { return shFrame.toLocal(d); }
+    Vector3f toWorld(const Vector3f& d) const { return shFrame.toWorld(d); }
+};
+
+// A point sampled uniformly on a mesh's surface.
+struct SurfaceSample {
+    Point3f p;
+    Normal3f n;
+    Point2f uv;
+    float pdf;  // area density (1 / surface area)
+};
+
+class Mesh : public Object {
+public:
+    Mesh() = default;
+    ObjectKind kind() const override { return ObjectKind::Mesh; }
+
+    void addChild(const std::shared_ptr<Object>& child, const std::string& name) override;
+    void activate() override;
+    std::string toString() const override;
+
+    uint32_t triangleCount() const { return static_cast<uint32_t>(m_faces.cols()); }
+    uint32_t vertexCount() const { return static_cast<uint32_t>(m_positions.cols()); }
+    const Eigen::Matrix<float, 3, Eigen::Dynamic>& positions() const { return m_positions; }
+    const Eigen::Matrix<float, 3, Eigen::Dynamic>& normals() const { return m_normals; }
+    const Eigen::Matrix<float, 2, Eigen::Dynamic>& uvs() const { return m_uvs; }
+    const Eigen::Matrix<uint32_t, 3, Eigen::Dynamic>& faces() const { return m_faces; }
+
+    float triangleArea(uint32_t index) const;
+    float surfaceArea() const { return m_surfaceArea; }
+    Eigen::AlignedBox3f bounds() const;
+
+    // Fills the hit record from a triangle index and barycentrics (u, v) as Embree reports them.
+    void fillIntersection(uint32_t triangle, float u, float v, Intersection& its) const;
+    // Samples a point uniformly by area.
+    SurfaceSample sampleSurface(const Point2f& sample) const;
+
+    const BSDF* bsdf() const { return m_bsdf.get(); }
+    const Emitter* emitter() const { return m_emitter.get(); }
+    std::shared_ptr<Emitter> emitterShared() const { return m_emitter; }
+
+protected:
+    // Called by loaders with the geometry; computes areas and the sampling table.
+    void setGeometry(Eigen::Matrix<float, 3, Eigen::Dynamic> positions,
+                     Eigen::Matrix<float, 3, Eigen::Dynamic> normals,
+                     Eigen::Matrix<float, 2, Eigen::Dynamic> uvs,
+                     Eigen::Matrix<uint32_t, 3, Eigen::Dynamic> faces);
+    std::string m_name;
+
+private:
+    Eigen::Matrix<float, 3, Eigen::Dynamic> m_positions;
+    Eigen::Matrix<float, 3, Eigen::Dynamic> m_normals;  // empty when the file has none
+    Eigen::Matrix<float, 2, Eigen::Dynamic> m_uvs;      // empty when the file has none
+    Eigen::Matrix<uint32_t, 3, Eigen::Dynamic> m_faces;
+    DiscretePDF m_areaPdf;
+    float m_surfaceArea = 0.0f;
+
+    std::shared_ptr<BSDF> m_bsdf;
+    std::shared_ptr<Emitter> m_emitter;
+};
+
+}  // namespace alphorn

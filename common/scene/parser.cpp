@@ -1,0 +1,322 @@
+#include "common/scene/parser.h"
+
+#include "common/scene/scene.h"
+
+#include <absl/strings/ascii.h>
+#include <absl/strings/str_split.h>
+#include <pugixml.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+namespace alphorn {
+namespace {
+
+enum class Tag {
+    Object,
+    Boolean,
+    Integer,
+    Float,
+    String,
+    Point,
+    Vector,
+    Color,
+    Transform,
+    Translate,
+    Matrix,
+    Rotate,
+    Scale,
+    LookAt,
+};
+
+const std::map<std::string, ObjectKind> kObjectTags = {
+    {"scene", ObjectKind::Scene},        {"mesh", ObjectKind::Mesh},
+    {"bsdf", ObjectKind::BSDF},          {"texture", ObjectKind::Texture},
+    {"medium", ObjectKind::Medium},      {"phase", ObjectKind::PhaseFunction},
+    {"emitter", ObjectKind::Emitter},    {"camera", ObjectKind::Camera},
+    {"integrator", ObjectKind::Integrator}, {"sampler", ObjectKind::Sampler},
+    {"rfilter", ObjectKind::Filter},     {"test", ObjectKind::Test},
+};
+
+const std::map<std::string, Tag> kPropertyTags = {
+    {"boolean", Tag::Boolean},     {"integer", Tag::Integer}, {"float", Tag::Float},
+    {"string", Tag::String},       {"point", Tag::Point},     {"vector", Tag::Vector},
+    {"color", Tag::Color},         {"transform", Tag::Transform},
+    {"translate", Tag::Translate}, {"matrix", Tag::Matrix},   {"rotate", Tag::Rotate},
+    {"scale", Tag::Scale},         {"lookat", Tag::LookAt},
+};
+
+class Parser {
+public:
+    explicit Parser(std::string path) : m_path(std::move(path)) {}
+
+    ParseResult parse() {
+        std::ifstream file(m_path, std::ios::binary);
+        if (!file) fail("%s: cannot open the scene file: %s", m_path, std::strerror(errno));
+        if (std::filesystem::is_directory(m_path)) fail("%s: is a directory, not a scene file", m_path);
+        std::stringstream buffer;
+        buffer << file.rdbuf();
+        m_text = buffer.str();
+        m_baseDirectory = std::filesystem::path(m_path).parent_path().string();
+
+        pugi::xml_document doc;
+        pugi::xml_parse_result result = doc.load_buffer(m_text.data(), m_text.size());
+        if (!result) fail("%s: malformed XML: %s", location(result.offset), result.description());
+
+        pugi::xml_node root = doc.document_element();
+        if (!root) fail("%s: the file has no root element", m_path);
+        if (!kObjectTags.count(root.name()))
+            fail("%s: the root element must be <scene> or <test>, found <%s>",
+                 location(root.offset_debug()), root.name());
+        ParseResult out;
+        out.root = parseObject(root);
+        out.dependencies = std::move(*m_dependencies);
+        return out;
+    }
+
+private:
+    std::string location(ptrdiff_t offset) const {
+        int line = 1, column = 1;
+        for (ptrdiff_t i = 0; i < offset && i < static_cast<ptrdiff_t>(m_text.size()); ++i) {
+            if (m_text[i] == '\n') {
+                ++line;
+                column = 1;
+            } else {
+                ++column;
+            }
+        }
+        return absl::StrFormat("%s:%d:%d", m_path, line, column);
+    }
+
+    template <typename... Args>
+    [[noreturn]] void failAt(const pugi::xml_node& node, const absl::FormatSpec<Args...>& format,
+                             const Args&... args) const {
+        throw Error(location(node.offset_debug()) + ": " + absl::StrFormat(format, args...));
+    }
+
+    void checkAttributes(const pugi::xml_node& node, std::initializer_list<const char*> allowed) {
+        for (const pugi::xml_attribute& attr : node.attributes()) {
+            bool ok = false;
+            for (const char* name : allowed) ok |= std::strcmp(attr.name(), name) == 0;
+            if (!ok) failAt(node, "<%s> does not take the attribute \"%s\"", node.name(), attr.name());
+        }
+        for (const char* name : allowed) {
+            // "name" on objects and "type" on <scene> are optional; everything else is required.
+            bool optional = std::strcmp(name, "name") == 0 && kObjectTags.count(node.name());
+            if (!optional && !node.attribute(name))
+                failAt(node, "<%s> is missing the attribute \"%s\"", node.name(), name);
+        }
+    }
+
+    std::string attr(const pugi::xml_node& node, const char* name) {
+        return node.attribute(name).value();
+    }
+
+    float toFloat(const pugi::xml_node& node, const std::string& text) {
+        std::string s(absl::StripAsciiWhitespace(text));
+        char* end = nullptr;
+        float v = std::strtof(s.c_str(), &end);
+        if (s.empty() || *end != '\0') failAt(node, "could not parse the number \"%s\"", text);
+        return v;
+    }
+
+    int toInt(const pugi::xml_node& node, const std::string& text) {
+        std::string s(absl::StripAsciiWhitespace(text));
+        char* end = nullptr;
+        errno = 0;
+        long v = std::strtol(s.c_str(), &end, 10);
+        if (s.empty() || *end != '\0' || errno == ERANGE || v < INT32_MIN || v > INT32_MAX)
+            failAt(node, "could not parse the integer \"%s\"", text);
+        return static_cast<int>(v);
+    }
+
+    bool toBool(const pugi::xml_node& node, const std::string& text) {
+        std::string s = absl::AsciiStrToLower(absl::StripAsciiWhitespace(text));
+        if (s == "true") return true;
+        if (s == "false") return false;
+        failAt(node, "could not parse the boolean \"%s\" (expected true or false)", text);
+    }
+
+    std::vector<float> toFloats(const pugi::xml_node& node, const std::string& text) {
+        std::vector<float> values;
+        for (absl::string_view token : absl::StrSplit(text, absl::ByAnyChar(", \t\r\n"), absl::SkipEmpty()))
+            values.push_back(toFloat(node, std::string(token)));
+        return values;
+    }
+
+    Vector3f toVector3f(const pugi::xml_node& node, const std::string& text) {
+        std::vector<float> v = toFloats(node, text);
+        if (v.size() != 3) failAt(node, "expected 3 values, got \"%s\"", text);
+        return Vector3f(v[0], v[1], v[2]);
+    }
+
+    Color3f toColor(const pugi::xml_node& node, const std::string& text) {
+        std::vector<float> v = toFloats(node, text);
+        if (v.size() == 1) return Color3f(v[0]);
+        if (v.size() != 3) failAt(node, "expected 1 or 3 colour values, got \"%s\"", text);
+        return Color3f(v[0], v[1], v[2]);
+    }
+
+    // Applies a transform operation after those already accumulated (Nori's order).
+    Matrix4f transformOp(const pugi::xml_node& node, Tag tag) {
+        Eigen::Affine3f op = Eigen::Affine3f::Identity();
+        switch (tag) {
+            case Tag::Translate:
+                checkAttributes(node, {"value"});
+                op = Eigen::Translation3f(toVector3f(node, attr(node, "value")));
+                break;
+            case Tag::Scale:
+                checkAttributes(node, {"value"});
+                op = Eigen::DiagonalMatrix<float, 3>(toVector3f(node, attr(node, "value")));
+                break;
+            case Tag::Rotate: {
+                checkAttributes(node, {"angle", "axis"});
+                float angle = degToRad(toFloat(node, attr(node, "angle")));
+                Vector3f axis = toVector3f(node, attr(node, "axis"));
+                if (!(axis.norm() > 0.0f)) failAt(node, "the rotation axis is zero");
+                op = Eigen::AngleAxisf(angle, axis.normalized());
+                break;
+            }
+            case Tag::Matrix: {
+                checkAttributes(node, {"value"});
+                std::vector<float> v = toFloats(node, attr(node, "value"));
+                if (v.size() != 16) failAt(node, "a matrix needs 16 values, got %zu", v.size());
+                Matrix4f m;
+                for (int i = 0; i < 4; ++i)
+                    for (int j = 0; j < 4; ++j) m(i, j) = v[i * 4 + j];
+                return m;
+            }
+            case Tag::LookAt: {
+                checkAttributes(node, {"origin", "target", "up"});
+                Vector3f origin = toVector3f(node, attr(node, "origin"));
+                Vector3f target = toVector3f(node, attr(node, "target"));
+                Vector3f up = toVector3f(node, attr(node, "up"));
+                Vector3f dir = target - origin;
+                if (!(dir.norm() > 0.0f)) failAt(node, "lookat origin and target coincide");
+                dir.normalize();
+                Vector3f left = up.normalized().cross(dir);
+                if (!(left.norm() > 0.0f) || !left.allFinite())
+                    failAt(node, "lookat up vector is zero or parallel to the view direction");
+                left.normalize();
+                Vector3f newUp = dir.cross(left).normalized();
+                Matrix4f m = Matrix4f::Identity();
+                m.block<3, 1>(0, 0) = left;
+                m.block<3, 1>(0, 1) = newUp;
+                m.block<3, 1>(0, 2) = dir;
+                m.block<3, 1>(0, 3) = origin;
+                return m;
+            }
+            default: break;
+        }
+        return op.matrix();
+    }
+
+    std::shared_ptr<Object> parseObject(const pugi::xml_node& node) {
+        ObjectKind kind = kObjectTags.at(node.name());
+        if (kind == ObjectKind::Scene)
+            checkAttributes(node, {"name"});
+        else
+            checkAttributes(node, {"type", "name"});
+        std::string type = kind == ObjectKind::Scene ? "scene" : attr(node, "type");
+
+        std::string where = location(node.offset_debug());
+        PropertyList props(kind == ObjectKind::Scene
+                               ? where + " (scene)"
+                               : absl::StrFormat("%s (%s type=\"%s\")", where, node.name(), type));
+        props.setBaseDirectory(m_baseDirectory);
+        props.setDependencyLog(m_dependencies);
+
+        std::vector<std::pair<std::shared_ptr<Object>, std::string>> children;
+        for (const pugi::xml_node& child : node.children()) {
+            if (child.type() == pugi::node_comment || child.type() == pugi::node_declaration)
+                continue;
+            if (child.type() != pugi::node_element) {
+                if (std::string(absl::StripAsciiWhitespace(child.value())).empty()) continue;
+                failAt(child, "unexpected text \"%s\" inside <%s>", child.value(), node.name());
+            }
+            std::string tag = child.name();
+            if (kObjectTags.count(tag)) {
+                if (tag == "scene" && kind != ObjectKind::Test)
+                    failAt(child, "<scene> can only be nested in a <test>");
+                children.emplace_back(parseObject(child), attr(child, "name"));
+            } else if (kPropertyTags.count(tag)) {
+                parseProperty(child, kPropertyTags.at(tag), props);
+            } else {
+                failAt(child, "unknown element <%s>", tag);
+            }
+        }
+
+        std::shared_ptr<Object> object = ObjectFactory::create(kind, type, props);
+        if (object->kind() != kind)
+            failAt(node, "type \"%s\" is not a %s", type, node.name());
+        for (auto& [child, name] : children) object->addChild(child, name);
+        object->activate();
+        for (const std::string& unused : props.unusedNames())
+            std::cerr << "warning: " << props.source() << ": property \"" << unused
+                      << "\" is not used\n";
+        return object;
+    }
+
+    void parseProperty(const pugi::xml_node& node, Tag tag, PropertyList& props) {
+        if (tag == Tag::Transform) {
+            checkAttributes(node, {"name"});
+            Matrix4f m = Matrix4f::Identity();
+            for (const pugi::xml_node& op : node.children()) {
+                if (op.type() == pugi::node_comment) continue;
+                if (op.type() != pugi::node_element)
+                    failAt(op, "unexpected text inside <transform>");
+                auto it = kPropertyTags.find(op.name());
+                if (it == kPropertyTags.end() || it->second < Tag::Translate)
+                    failAt(op, "<%s> is not a transform operation (translate, scale, rotate, "
+                               "lookat, matrix)", op.name());
+                m = transformOp(op, it->second) * m;
+            }
+            if (!m.allFinite() || std::abs(m.determinant()) == 0.0f)
+                failAt(node, "the transform \"%s\" is singular or not finite", attr(node, "name"));
+            props.setTransform(attr(node, "name"), Transform(m));
+            return;
+        }
+        if (tag >= Tag::Translate)
+            failAt(node, "<%s> must be inside a <transform>", node.name());
+        checkAttributes(node, {"name", "value"});
+        std::string name = attr(node, "name"), value = attr(node, "value");
+        try {
+            switch (tag) {
+                case Tag::Boolean: props.setBoolean(name, toBool(node, value)); break;
+                case Tag::Integer: props.setInteger(name, toInt(node, value)); break;
+                case Tag::Float: props.setFloat(name, toFloat(node, value)); break;
+                case Tag::String: props.setString(name, value); break;
+                case Tag::Point: props.setPoint(name, toVector3f(node, value)); break;
+                case Tag::Vector: props.setVector(name, toVector3f(node, value)); break;
+                case Tag::Color: props.setColor(name, toColor(node, value)); break;
+                default: break;
+            }
+        } catch (const Error& e) {
+            // Re-anchor errors from the property list (e.g. duplicates) at this element.
+            std::string message = e.what();
+            if (message.rfind(m_path, 0) == 0) throw;
+            failAt(node, "%s", message);
+        }
+    }
+
+    std::string m_path;
+    std::string m_text;
+    std::string m_baseDirectory;
+    std::shared_ptr<std::vector<std::string>> m_dependencies =
+        std::make_shared<std::vector<std::string>>();
+};
+
+}  // namespace
+
+ParseResult parseSceneFile(const std::string& path) { return Parser(path).parse(); }
+
+std::shared_ptr<Scene> loadScene(const std::string& path) {
+    ParseResult result = parseSceneFile(path);
+    if (result.root->kind() != ObjectKind::Scene)
+        fail("%s: expected a <scene> root element, found <%s>", path, kindTag(result.root->kind()));
+    return std::static_pointer_cast<Scene>(result.root);
+}
+
+}  // namespace alphorn

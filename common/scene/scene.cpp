@@ -1,0 +1,93 @@
+#include "common/scene/scene.h"
+
+#include <absl/strings/str_format.h>
+
+namespace alphorn {
+
+Scene::Scene(const PropertyList&) {}
+
+void Scene::addChild(const std::shared_ptr<Object>& child, const std::string& name) {
+    switch (child->kind()) {
+        case ObjectKind::Mesh: {
+            auto mesh = std::static_pointer_cast<Mesh>(child);
+            m_meshes.push_back(mesh);
+            if (mesh->emitter()) m_emitters.push_back(mesh->emitterShared());
+            break;
+        }
+        case ObjectKind::Emitter:
+            m_emitters.push_back(std::static_pointer_cast<Emitter>(child));
+            break;
+        case ObjectKind::Camera:
+            if (m_camera) child->fail("the scene has more than one camera");
+            m_camera = std::static_pointer_cast<Camera>(child);
+            break;
+        case ObjectKind::Integrator:
+            if (m_integrator) child->fail("the scene has more than one integrator");
+            m_integrator = std::static_pointer_cast<Integrator>(child);
+            break;
+        case ObjectKind::Sampler:
+            if (m_sampler) child->fail("the scene has more than one sampler");
+            m_sampler = std::static_pointer_cast<Sampler>(child);
+            break;
+        default: Object::addChild(child, name);
+    }
+}
+
+void Scene::activate() {
+    if (!m_camera) fail("the scene has no camera");
+    if (!m_integrator) fail("the scene has no integrator");
+    if (!m_sampler) {
+        // Nori's default: an independent sampler with one sample per pixel.
+        PropertyList props(source() + " (default sampler)");
+        m_sampler = std::static_pointer_cast<Sampler>(
+            ObjectFactory::create(ObjectKind::Sampler, "independent", props));
+        m_sampler->activate();
+    }
+    m_accel.build(m_meshes);
+    m_powerPdf.clear();
+    for (const auto& emitter : m_emitters) {
+        Color3f power = emitter->power();
+        m_powerPdf.append(std::max(0.0f, power.mean()));
+    }
+    m_powerPdf.normalize();
+    m_integrator->preprocess(*this);
+}
+
+const Emitter* Scene::sampleEmitter(float& sample, float& pdf) const {
+    if (m_emitters.empty()) {
+        pdf = 0.0f;
+        return nullptr;
+    }
+    size_t count = m_emitters.size();
+    size_t index = std::min(count - 1, static_cast<size_t>(sample * count));
+    sample = std::min(sample * count - index, 0.99999994f);
+    pdf = 1.0f / count;
+    return m_emitters[index].get();
+}
+
+const Emitter* Scene::sampleEmitterByPower(float& sample, float& pdf) const {
+    if (m_emitters.empty() || !(m_powerPdf.sum() > 0.0)) {
+        pdf = 0.0f;
+        return nullptr;
+    }
+    size_t index = m_powerPdf.sampleReuse(sample);
+    pdf = m_powerPdf[index];
+    return m_emitters[index].get();
+}
+
+void Scene::setIntegrator(std::shared_ptr<Integrator> integrator) {
+    m_integrator = std::move(integrator);
+    m_integrator->preprocess(*this);
+}
+
+std::string Scene::toString() const {
+    size_t triangles = 0;
+    for (const auto& m : m_meshes) triangles += m->triangleCount();
+    return absl::StrFormat("scene: %zu meshes (%zu triangles), %zu emitters, %dx%d pixels",
+                           m_meshes.size(), triangles, m_emitters.size(),
+                           m_camera->outputSize().x(), m_camera->outputSize().y());
+}
+
+ALPHORN_REGISTER(Scene, "scene", Scene);
+
+}  // namespace alphorn

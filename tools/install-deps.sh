@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package Alphorn builds, tests or runs with. Idempotent: installs only
+# what is missing, so the README commands are cheap to repeat.
+set -euo pipefail
+PACKAGES=(
+  build-essential cmake ninja-build ccache pkg-config python3 openssl
+  libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev
+  libopenexr-dev libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev
+  libembree-dev libtbb-dev libpugixml-dev libtinyobjloader-dev libpng-dev
+  libsqlite3-dev libzstd-dev libnanoflann-dev libpcg-cpp-dev libcli11-dev libssl-dev
+)
+missing=()
+for p in "${PACKAGES[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "installing: ${missing[*]}"
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi

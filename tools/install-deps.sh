@@ -7,7 +7,7 @@ PACKAGES=(
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev
   libopenexr-dev libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev
   libembree-dev libtbb-dev libpugixml-dev libtinyobjloader-dev libpng-dev
-  libsqlite3-dev libzstd-dev libnanoflann-dev libpcg-cpp-dev libcli11-dev libssl-dev
+  libboost-dev libsqlite3-dev libzstd-dev libnanoflann-dev libpcg-cpp-dev libcli11-dev libssl-dev
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

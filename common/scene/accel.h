@@ -19,6 +19,8 @@ public:
     bool intersect(const Ray3f& ray, Intersection& its) const;
     bool occluded(const Ray3f& ray) const;
     const Eigen::AlignedBox3f& bounds() const { return m_bounds; }
+    // The Embree scene itself, for benchmarks that measure raw Embree throughput.
+    RTCScene embreeScene() const { return m_scene; }
 
 private:
     void release();

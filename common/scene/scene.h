@@ -32,6 +32,7 @@ public:
     const std::vector<std::shared_ptr<Mesh>>& meshes() const { return m_meshes; }
     const std::vector<std::shared_ptr<Emitter>>& emitters() const { return m_emitters; }
     const Eigen::AlignedBox3f& bounds() const { return m_accel.bounds(); }
+    const Accel& accel() const { return m_accel; }
 
     // Uniform light selection for next-event estimation (as in Nori).
     const Emitter* sampleEmitter(float& sample, float& pdf) const;

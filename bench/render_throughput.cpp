@@ -1,0 +1,131 @@
+// Renderer throughput against raw Embree on the same scene and the same kind of rays.
+//
+// The renderer renders the scene with its integrator (path_mis for the Cornell box) and counts
+// every ray it traces (closest-hit and shadow). The baseline traces, with rtcIntersect1 alone,
+// one camera ray per pixel and pass followed by cosine-distributed bounce rays from each hit,
+// as many rays per camera sample as the renderer traced on average. Both run on all cores in the
+// same process, alternating, and the ratio of rays per second is printed: the cost of shading,
+// sampling, filtering and accumulation on top of ray traversal.
+//
+// usage: bench_render_throughput [SCENE.xml] [passes] [rounds]
+#include "common/core/frame.h"
+#include "common/core/rng.h"
+#include "common/core/warp.h"
+#include "common/render/local_render.h"
+#include "common/scene/parser.h"
+#include "common/scene/scene.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+using namespace alphorn;
+
+namespace {
+
+double seconds(std::chrono::steady_clock::time_point since) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+RTCRayHit makeRayHit(const Point3f& o, const Vector3f& d) {
+    RTCRayHit rh;
+    rh.ray.org_x = o.x(), rh.ray.org_y = o.y(), rh.ray.org_z = o.z();
+    rh.ray.dir_x = d.x(), rh.ray.dir_y = d.y(), rh.ray.dir_z = d.z();
+    rh.ray.tnear = Epsilon;
+    rh.ray.tfar = Infinity;
+    rh.ray.time = 0.0f;
+    rh.ray.mask = 0xffffffffu;
+    rh.ray.id = 0;
+    rh.ray.flags = 0;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    return rh;
+}
+
+// Traces camera rays and cosine bounces with raw rtcIntersect1; returns the number of rays.
+uint64_t traceRawEmbree(const Scene& scene, uint32_t passes, double raysPerSample) {
+    const Camera& camera = *scene.camera();
+    const int width = camera.outputSize().x(), height = camera.outputSize().y();
+    RTCScene embree = scene.accel().embreeScene();
+    // Bounces per camera ray so that the total ray count matches the renderer's.
+    const double bounces = std::max(0.0, raysPerSample - 1.0);
+    return tbb::parallel_reduce(
+        tbb::blocked_range<int>(0, height * int(passes)), uint64_t(0),
+        [&](const tbb::blocked_range<int>& rows, uint64_t count) {
+            RTCIntersectContext context;
+            rtcInitIntersectContext(&context);
+            for (int item = rows.begin(); item != rows.end(); ++item) {
+                const int y = item % height, pass = item / height;
+                for (int x = 0; x < width; ++x) {
+                    Rng rng(1, pass, uint64_t(y) * width + x, StreamPurpose::Test);
+                    Ray3f ray;
+                    Point2f pixel(x + rng.nextFloat(), y + rng.nextFloat());
+                    camera.sampleRay(ray, pixel, Point2f(0.5f, 0.5f));
+                    // Fractional bounce counts are met on average.
+                    double budget = bounces + rng.nextFloat();
+                    Point3f o = ray.o;
+                    Vector3f d = ray.d;
+                    for (int depth = 0;; ++depth) {
+                        RTCRayHit rh = makeRayHit(o, d);
+                        rtcIntersect1(embree, &context, &rh);
+                        ++count;
+                        if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID || depth + 1 > budget) break;
+                        Vector3f n(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+                        n.normalize();
+                        if (n.dot(d) > 0.0f) n = -n;
+                        o = o + rh.ray.tfar * d;
+                        Point2f u(rng.nextFloat(), rng.nextFloat());
+                        d = Frame(n).toWorld(warp::squareToCosineHemisphere(u));
+                    }
+                }
+            }
+            return count;
+        },
+        std::plus<uint64_t>());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    std::string scenePath = argc > 1 ? argv[1] : ALPHORN_SOURCE_DIR "/scenes/cbox/cbox.xml";
+    uint32_t passes = argc > 2 ? std::stoul(argv[2]) : 8;
+    int rounds = argc > 3 ? std::stoi(argv[3]) : 3;
+    try {
+        std::shared_ptr<Scene> scene = loadScene(scenePath);
+        const Vector2i size = scene->camera()->outputSize();
+        const double samples = double(passes) * size.x() * size.y();
+        std::printf("scene %s: %dx%d, %u passes, %d rounds\n", scenePath.c_str(), size.x(),
+                    size.y(), passes, rounds);
+        std::vector<double> ratios;
+        for (int round = 0; round < rounds; ++round) {
+            RenderSettings settings;
+            settings.passes = passes;
+            settings.seed = round;
+            RenderCounters counters;
+            auto start = std::chrono::steady_clock::now();
+            renderLocal(*scene, settings, {}, &counters);
+            double renderSeconds = seconds(start);
+            double renderRate = counters.rays / renderSeconds;
+            double raysPerSample = counters.rays / samples;
+
+            start = std::chrono::steady_clock::now();
+            uint64_t rawRays = traceRawEmbree(*scene, passes, raysPerSample);
+            double rawRate = rawRays / seconds(start);
+            ratios.push_back(renderRate / rawRate);
+            std::printf(
+                "round %d: renderer %.2f Mrays/s (%.2f rays/sample), raw rtcIntersect1 %.2f "
+                "Mrays/s, ratio %.3f\n",
+                round, renderRate * 1e-6, raysPerSample, rawRate * 1e-6, ratios.back());
+        }
+        std::sort(ratios.begin(), ratios.end());
+        std::printf("median ratio renderer / raw Embree: %.3f (goal >= 0.5)\n",
+                    ratios[ratios.size() / 2]);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "error: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}

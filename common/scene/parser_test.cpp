@@ -1,0 +1,116 @@
+#include "common/scene/parser.h"
+
+#include "common/scene/scene.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+namespace alphorn {
+namespace {
+
+class ParserTest : public ::testing::Test {
+protected:
+    std::string write(const std::string& name, const std::string& text) {
+        std::filesystem::path path = m_dir / name;
+        std::ofstream(path) << text;
+        return path.string();
+    }
+    // Expects loading to fail with a message that contains every fragment.
+    void expectError(const std::string& text, std::initializer_list<std::string> fragments) {
+        std::string path = write("bad.xml", text);
+        try {
+            parseSceneFile(path);
+            FAIL() << "no error for:\n" << text;
+        } catch (const Error& e) {
+            for (const std::string& f : fragments)
+                EXPECT_NE(std::string(e.what()).find(f), std::string::npos)
+                    << "message \"" << e.what() << "\" lacks \"" << f << "\"";
+        }
+    }
+    void SetUp() override {
+        m_dir = std::filesystem::temp_directory_path() /
+                ("alphorn_parser_test_" + std::to_string(::getpid()));
+        std::filesystem::create_directories(m_dir);
+        std::filesystem::copy_file(ALPHORN_SOURCE_DIR "/scenes/meshes/triangle.obj",
+                                   m_dir / "triangle.obj",
+                                   std::filesystem::copy_options::overwrite_existing);
+    }
+    void TearDown() override { std::filesystem::remove_all(m_dir); }
+
+    std::filesystem::path m_dir;
+};
+
+const char* kCamera = R"(<camera type="perspective"><integer name="width" value="8"/><integer name="height" value="6"/></camera>)";
+
+std::string sceneWith(const std::string& body) {
+    return std::string("<scene>\n<integrator type=\"normals\"/>\n") + kCamera + "\n" + body +
+           "\n</scene>\n";
+}
+
+TEST_F(ParserTest, LoadsMinimalSceneWithNoriDefaults) {
+    std::string path = write("ok.xml", "<scene><integrator type=\"normals\"/><camera type=\"perspective\"/>"
+                                       "<mesh type=\"obj\"><string name=\"filename\" value=\"triangle.obj\"/></mesh></scene>");
+    ParseResult result = parseSceneFile(path);
+    auto scene = std::static_pointer_cast<Scene>(result.root);
+    EXPECT_EQ(scene->camera()->outputSize(), Vector2i(1280, 720));
+    EXPECT_FLOAT_EQ(scene->camera()->filter()->radius(), 2.0f);  // gaussian default
+    EXPECT_EQ(scene->sampler()->sampleCount(), 1);
+    ASSERT_EQ(scene->meshes().size(), 1u);
+    EXPECT_EQ(scene->meshes()[0]->triangleCount(), 1u);
+    ASSERT_EQ(result.dependencies.size(), 1u);
+    EXPECT_EQ(result.dependencies[0], (m_dir / "triangle.obj").string());
+}
+
+TEST_F(ParserTest, TransformOperationsApplyInOrder) {
+    // scale then translate: the vertex (1, 0, -1) goes to (2, 0, -2) then to (3, 0, -2).
+    // (Faces list it third, so it is the third unique vertex.)
+    std::string path = write("t.xml", sceneWith(R"(<mesh type="obj"><string name="filename" value="triangle.obj"/>
+        <transform name="toWorld"><scale value="2, 2, 2"/><translate value="1, 0, 0"/></transform></mesh>)"));
+    auto scene = loadScene(path);
+    const auto& p = scene->meshes()[0]->positions();
+    EXPECT_FLOAT_EQ(p(0, 2), 3.0f);
+    EXPECT_FLOAT_EQ(p(2, 2), -2.0f);
+}
+
+TEST_F(ParserTest, RotateAndMatrixAgree) {
+    std::string a = write("a.xml", sceneWith(R"(<mesh type="obj"><string name="filename" value="triangle.obj"/>
+        <transform name="toWorld"><rotate axis="0, 0, 1" angle="90"/></transform></mesh>)"));
+    std::string b = write("b.xml", sceneWith(R"(<mesh type="obj"><string name="filename" value="triangle.obj"/>
+        <transform name="toWorld"><matrix value="0 -1 0 0  1 0 0 0  0 0 1 0  0 0 0 1"/></transform></mesh>)"));
+    auto pa = loadScene(a)->meshes()[0]->positions();
+    auto pb = loadScene(b)->meshes()[0]->positions();
+    EXPECT_TRUE(pa.isApprox(pb, 1e-6f)) << pa << "\n\n" << pb;
+}
+
+TEST_F(ParserTest, ErrorsNameFileLineAndProblem) {
+    expectError("<scene>\n<integrator type=\"normals\"/>\n<camera type=\"perspective\">\n",
+                {"bad.xml:", "malformed XML"});
+    expectError(sceneWith("<bsdf type=\"nosuchbsdf\"/>"), {"bad.xml:4:", "unknown bsdf type \"nosuchbsdf\""});
+    expectError(sceneWith("<mesh type=\"obj\"><string name=\"filename\" value=\"missing.obj\"/></mesh>"),
+                {"bad.xml:4:", "missing.obj"});
+    expectError("<scene>\n<integrator type=\"normals\"/>\n</scene>", {"bad.xml:1:", "no camera"});
+    expectError(sceneWith("<mesh type=\"obj\"><string name=\"filename\" value=\"triangle.obj\"/>\n"
+                          "<float name=\"x\" value=\"1\"/><float name=\"x\" value=\"2\"/></mesh>"),
+                {"bad.xml:", "more than once"});
+    expectError(sceneWith("<mesh type=\"obj\"><string name=\"filename\" value=\"triangle.obj\"/>"
+                          "<bsdf type=\"diffuse\"><color name=\"albedo\" value=\"-1, 0, 0\"/></bsdf></mesh>"),
+                {"bad.xml:4:", "albedo"});
+    expectError(sceneWith("<mesh type=\"obj\"><string name=\"filename\" value=\"triangle.obj\"/>"
+                          "<bsdf type=\"diffuse\"><color name=\"albedo\" value=\"nan, 0, 0\"/></bsdf></mesh>"),
+                {"bad.xml:4:", "albedo"});
+    expectError(sceneWith("<float name=\"fov\" value=\"abc\"/>"), {"bad.xml:4:", "abc"});
+    expectError(sceneWith("<transform name=\"t\"><rotate axis=\"0,0,0\" angle=\"3\"/></transform>"),
+                {"bad.xml:4:", "axis"});
+    expectError(sceneWith("<mesh type=\"obj\"><integer name=\"filename\" value=\"3\"/></mesh>"),
+                {"bad.xml:4:", "filename"});
+}
+
+TEST_F(ParserTest, MissingSceneFileIsAnError) {
+    EXPECT_THROW(parseSceneFile((m_dir / "nope.xml").string()), Error);
+    EXPECT_THROW(parseSceneFile(m_dir.string()), Error);
+}
+
+}  // namespace
+}  // namespace alphorn

@@ -1,0 +1,63 @@
+// <bsdf type="dielectric">: a smooth interface between two dielectrics (Nori's), e.g. glass in
+// air. The normal points to the exterior (`extIOR`); reflection and refraction are both deltas,
+// chosen in proportion to the Fresnel reflectance so that sample() weights are 1 or 1/eta^2.
+#include "common/bsdf/bsdf.h"
+#include "common/bsdf/fresnel.h"
+#include "common/core/frame.h"
+
+namespace alphorn {
+
+class Dielectric : public BSDF {
+public:
+    explicit Dielectric(const PropertyList& props) {
+        // Nori's defaults: BK7 glass inside, air outside.
+        m_intIOR = props.getPositiveFloat("intIOR", 1.5046f);
+        m_extIOR = props.getPositiveFloat("extIOR", 1.000277f);
+    }
+
+    Color3f eval(const BSDFQueryRecord&) const override { return Color3f(0.0f); }
+    float pdf(const BSDFQueryRecord&) const override { return 0.0f; }
+
+    Color3f sample(BSDFQueryRecord& rec, const Point2f& sample) const override {
+        const float cosThetaI = Frame::cosTheta(rec.wi);
+        const float reflectance = fresnelDielectric(cosThetaI, m_extIOR, m_intIOR);
+        rec.measure = Measure::Discrete;
+        if (sample.x() < reflectance) {
+            // Reflection is chosen with probability F, so the F in the weight cancels.
+            rec.wo = Vector3f(-rec.wi.x(), -rec.wi.y(), rec.wi.z());
+            rec.eta = 1.0f;
+            return Color3f(1.0f);
+        }
+        // Refraction. eta is the index on the transmitted side over the incident side.
+        const bool entering = cosThetaI > 0.0f;
+        const float eta = entering ? m_intIOR / m_extIOR : m_extIOR / m_intIOR;
+        const float invEta = 1.0f / eta;
+        const float cosI = std::abs(cosThetaI);
+        const float sinThetaTSqr = invEta * invEta * std::max(0.0f, 1.0f - cosI * cosI);
+        // fresnelDielectric returned 1 under total internal reflection, so we cannot get here
+        // with sinThetaTSqr >= 1 unless rounding differs; refuse rather than produce NaN.
+        if (sinThetaTSqr >= 1.0f) return Color3f(0.0f);
+        const float cosThetaT = std::sqrt(1.0f - sinThetaTSqr);
+        rec.wo =
+            Vector3f(-invEta * rec.wi.x(), -invEta * rec.wi.y(), entering ? -cosThetaT : cosThetaT);
+        rec.eta = eta;
+        // Radiance L/n^2 is invariant across the interface, so a camera path gains 1/eta^2.
+        return Color3f(invEta * invEta);
+    }
+
+    // Equal indices refract nothing and reflect nothing (Fresnel is 0): the report's
+    // index-matched medium boundary. Volumetric integrators then cross it like <bsdf type="null">.
+    bool isNull() const override { return m_intIOR == m_extIOR; }
+
+    std::string toString() const override {
+        return "dielectric, intIOR " + std::to_string(m_intIOR) + ", extIOR " +
+               std::to_string(m_extIOR);
+    }
+
+private:
+    float m_intIOR, m_extIOR;
+};
+
+ALPHORN_REGISTER(BSDF, "dielectric", Dielectric);
+
+}  // namespace alphorn

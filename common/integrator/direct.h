@@ -1,0 +1,87 @@
+// Building blocks shared by the surface integrators: next-event estimation (one emitter sample
+// with uniform light selection, as in Nori), emission seen along a ray, and the balance
+// heuristic. Keeping them in one place keeps all integrators one-sided and MIS-consistent in
+// the same way, so that direct light is counted exactly once.
+#pragma once
+
+#include "common/bsdf/bsdf.h"
+#include "common/core/frame.h"
+#include "common/emitter/emitter.h"
+#include "common/sampler/sampler.h"
+#include "common/scene/scene.h"
+
+namespace alphorn {
+
+// Balance heuristic weight of a strategy with density `a` against one with density `b`. Robust
+// to the infinities a grazing light sample can produce: never NaN.
+inline float balanceHeuristic(float a, float b) {
+    if (!(a > 0.0f)) return 0.0f;  // also catches NaN
+    if (std::isinf(a)) return std::isinf(b) ? 0.5f : 1.0f;
+    if (!(b > 0.0f)) return 1.0f;
+    if (std::isinf(b)) return 0.0f;
+    return a / (a + b);
+}
+
+// A BSDF query at a hit, with the texture coordinates filled in.
+inline BSDFQueryRecord makeBSDFQuery(const Intersection& its, const Vector3f& wiLocal) {
+    BSDFQueryRecord rec(wiLocal);
+    rec.uv = its.uv;
+    rec.p = its.p;
+    return rec;
+}
+
+// The emitter query for a ray from `origin` along unit direction `dir` hitting `its`.
+inline EmitterQueryRecord makeEmitterHitQuery(const Point3f& origin, const Vector3f& dir,
+                                              const Intersection& its) {
+    EmitterQueryRecord rec(origin, its.p, its.shFrame.n);
+    // The ray direction is exact even when origin and hit nearly coincide.
+    rec.wi = dir;
+    return rec;
+}
+
+// Radiance emitted by the surface `its` back along the ray (zero for non-emitters).
+inline Color3f emittedRadiance(const Point3f& origin, const Vector3f& dir,
+                               const Intersection& its) {
+    if (!its.mesh || !its.mesh->emitter()) return Color3f(0.0f);
+    return its.mesh->emitter()->eval(makeEmitterHitQuery(origin, dir, its));
+}
+
+// Solid-angle density with which next-event estimation from `origin` would have chosen the
+// point `its` on its emitter, light selection included (for MIS of BSDF-sampled hits).
+inline float emitterSamplingPdf(const Scene& scene, const Point3f& origin, const Vector3f& dir,
+                                const Intersection& its) {
+    if (!its.mesh || !its.mesh->emitter()) return 0.0f;
+    return its.mesh->emitter()->pdf(makeEmitterHitQuery(origin, dir, its)) * scene.emitterPdf();
+}
+
+// One sample of direct illumination at `its` from a uniformly chosen emitter, with visibility.
+// wiLocal points back towards the previous vertex. With `mis`, the result carries the balance
+// heuristic weight against BSDF sampling (delta lights keep weight 1: BSDF sampling cannot
+// reach them). Always draws one 1D and one 2D number so sample dimensions stay aligned.
+inline Color3f sampleDirect(const Scene& scene, Sampler& sampler, const Intersection& its,
+                            const BSDF& bsdf, const Vector3f& wiLocal, bool mis) {
+    float selection = sampler.next1D();
+    const Point2f lightSample = sampler.next2D();
+    float selectionPdf = 0.0f;
+    const Emitter* emitter = scene.sampleEmitter(selection, selectionPdf);
+    if (!emitter || !(selectionPdf > 0.0f)) return Color3f(0.0f);
+
+    EmitterQueryRecord lRec(its.p);
+    const Color3f radianceOverPdf = emitter->sample(lRec, lightSample);
+    if (radianceOverPdf.isBlack() || !radianceOverPdf.allFinite()) return Color3f(0.0f);
+
+    BSDFQueryRecord bRec = makeBSDFQuery(its, wiLocal);
+    bRec.wo = its.toLocal(lRec.wi);
+    bRec.measure = Measure::SolidAngle;
+    const Color3f f = bsdf.eval(bRec);
+    if (f.isBlack()) return Color3f(0.0f);
+    // The shadow ray is traced last: it is the expensive part and often unnecessary.
+    if (scene.rayOccluded(lRec.shadowRay)) return Color3f(0.0f);
+
+    Color3f result = f * radianceOverPdf * std::abs(Frame::cosTheta(bRec.wo)) / selectionPdf;
+    if (mis && !emitter->isDelta())
+        result *= balanceHeuristic(lRec.pdf * selectionPdf, bsdf.pdf(bRec));
+    return result;
+}
+
+}  // namespace alphorn

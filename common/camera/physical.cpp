@@ -1,0 +1,54 @@
+// <camera type="physical">: a thin-lens camera. Every parameter of `perspective` (width,
+// height, fov, toWorld, nearClip, farClip), plus
+//   apertureRadius  radius of the lens disk, in scene units (default 0: a pinhole)
+//   focalDistance   distance from the lens plane to the plane in focus, along the view axis
+//                   (default 10)
+// The ray origin is a point on the lens disk (the concentric map of the aperture sample) and
+// the ray passes through the point of the focal plane that the pinhole ray through the same
+// image position reaches. A point at depth Z then blurs into a disk of radius
+// apertureRadius |1/Z - 1/focalDistance| in tangent-space image units (VALIDATION.md).
+#include "common/camera/camera.h"
+#include "common/camera/pinhole.h"
+#include "common/core/warp.h"
+
+namespace alphorn {
+
+class PhysicalCamera : public Camera {
+  public:
+    explicit PhysicalCamera(const PropertyList& props) : m_projection(props, m_outputSize) {
+        m_apertureRadius = props.getNonNegativeFloat("apertureRadius", 0.0f);
+        m_focalDistance = props.getPositiveFloat("focalDistance", 10.0f);
+        if (!std::isfinite(m_apertureRadius) || !std::isfinite(m_focalDistance))
+            props.fail("apertureRadius and focalDistance must be finite");
+    }
+
+    void activate() override {
+        Camera::activate();
+        m_projection.activate();
+    }
+
+    Color3f sampleRay(Ray3f& ray, const Point2f& samplePosition,
+                      const Point2f& apertureSample) const override {
+        const Vector3f d = m_projection.direction(samplePosition);
+        // A zero aperture is exactly the pinhole ray (not a recomputed, rounded copy of it).
+        if (m_apertureRadius == 0.0f) {
+            m_projection.makeRay(ray, Point3f::Zero(), d);
+            return Color3f(1.0f);
+        }
+        const Point2f lens = m_apertureRadius * warp::squareToUniformDisk(apertureSample);
+        const Point3f origin(lens.x(), lens.y(), 0.0f);
+        const Point3f focus = d * (m_focalDistance / d.z());
+        m_projection.makeRay(ray, origin, (focus - origin).normalized());
+        return Color3f(1.0f);
+    }
+
+    std::string toString() const override { return "physical (thin lens) camera"; }
+
+  private:
+    PinholeProjection m_projection;
+    float m_apertureRadius, m_focalDistance;
+};
+
+ALPHORN_REGISTER(Camera, "physical", PhysicalCamera);
+
+}  // namespace alphorn

@@ -1,0 +1,77 @@
+// The pinhole projection shared by the `perspective` and `physical` cameras (Nori's
+// perspective model): parameters, the image-to-camera mapping and the clipping of rays. Both
+// cameras go through this one code path, which is what makes a `physical` camera with
+// apertureRadius 0 render the pinhole image byte for byte.
+#pragma once
+
+#include "common/core/properties.h"
+
+namespace alphorn {
+
+class PinholeProjection {
+  public:
+    PinholeProjection() = default;
+    // Reads width, height, toWorld, fov, nearClip, farClip (Nori's defaults) into `outputSize`
+    // and this projection.
+    PinholeProjection(const PropertyList& props, Vector2i& outputSize) {
+        outputSize.x() = props.getPositiveInteger("width", 1280);
+        outputSize.y() = props.getPositiveInteger("height", 720);
+        if (outputSize.x() > 16384 || outputSize.y() > 16384)
+            props.fail("image size %dx%d is too large (at most 16384 per side)", outputSize.x(),
+                       outputSize.y());
+        m_cameraToWorld = props.getTransform("toWorld", Transform());
+        m_fov = props.getFloat("fov", 30.0f);
+        if (!(m_fov > 0.0f && m_fov < 180.0f))
+            props.fail("fov must be in (0, 180) degrees, got %g", m_fov);
+        m_nearClip = props.getPositiveFloat("nearClip", 1e-4f);
+        m_farClip = props.getPositiveFloat("farClip", 1e4f);
+        if (!(m_farClip > m_nearClip)) props.fail("farClip must be greater than nearClip");
+        m_outputSize = outputSize;
+    }
+
+    // Precomputes the image-to-camera mapping (Nori's).
+    void activate() {
+        const float aspect = m_outputSize.x() / static_cast<float>(m_outputSize.y());
+        const float recip = 1.0f / (m_farClip - m_nearClip);
+        const float cot = 1.0f / std::tan(degToRad(m_fov / 2.0f));
+        Matrix4f perspective;
+        perspective << cot, 0, 0, 0, 0, cot, 0, 0, 0, 0, m_farClip * recip,
+            -m_nearClip * m_farClip * recip, 0, 0, 1, 0;
+        // Maps [0,1]^2 image coordinates to the near plane in camera space.
+        Eigen::Affine3f toSample =
+            Eigen::DiagonalMatrix<float, 3>(Vector3f(-0.5f, -0.5f * aspect, 1.0f)) *
+            Eigen::Translation3f(-1.0f, -1.0f / aspect, 0.0f);
+        m_sampleToCamera = Transform(toSample.matrix() * perspective).inverse();
+        m_invOutputSize = Vector2f(1.0f / m_outputSize.x(), 1.0f / m_outputSize.y());
+    }
+
+    // The unit direction, in camera space (looking along +z), of the pinhole ray through
+    // `samplePosition` (in pixels).
+    Vector3f direction(const Point2f& samplePosition) const {
+        const Point3f nearP =
+            m_sampleToCamera.applyPoint(Point3f(samplePosition.x() * m_invOutputSize.x(),
+                                                samplePosition.y() * m_invOutputSize.y(), 0.0f));
+        return nearP.normalized();
+    }
+
+    // The world ray from the camera-space `origin` (on the lens plane z = 0) along the
+    // camera-space unit direction `d`, clipped to the near and far planes.
+    void makeRay(Ray3f& ray, const Point3f& origin, const Vector3f& d) const {
+        const float invZ = 1.0f / d.z();
+        ray.o = m_cameraToWorld.applyPoint(origin);
+        ray.d = m_cameraToWorld.applyVector(d);
+        ray.mint = m_nearClip * invZ;
+        ray.maxt = m_farClip * invZ;
+    }
+
+    const Transform& cameraToWorld() const { return m_cameraToWorld; }
+    float fov() const { return m_fov; }
+
+  private:
+    Transform m_sampleToCamera, m_cameraToWorld;
+    Vector2i m_outputSize{1280, 720};
+    Vector2f m_invOutputSize;
+    float m_fov = 30.0f, m_nearClip = 1e-4f, m_farClip = 1e4f;
+};
+
+}  // namespace alphorn

@@ -1,0 +1,110 @@
+// <emitter type="spotlight">: PBRT v2's spotlight. A delta-position light at toWorld(0, 0, 0)
+// shining along toWorld's local +z axis.
+//   power         total emitted flux (a colour), required
+//   totalAngle    half-angle of the cone outside which it is dark, in degrees, in (0, 90]
+//                 (default 30)
+//   falloffStart  half-angle up to which the intensity is full, in degrees, in (0, totalAngle]
+//                 (default 25)
+//   toWorld       position and orientation
+// Between the cones the intensity falls off as delta^4 with
+// delta = (cos theta - cos totalAngle) / (cos falloffStart - cos totalAngle) (quartic in cosine
+// space). Integrating over the sphere, the flux of central intensity I is
+// 2 pi I [(1 - cos ts) + (cos ts - cos tt) / 5], so I = power / that bracket (VALIDATION.md).
+#include "common/core/frame.h"
+#include "common/emitter/emitter.h"
+
+namespace alphorn {
+
+class SpotLight : public Emitter {
+  public:
+    explicit SpotLight(const PropertyList& props) {
+        if (!props.has("power")) props.fail("a spotlight needs a \"power\" colour (total flux)");
+        m_power = props.getNonNegativeColor("power", Color3f(0.0f));
+        const float totalAngle = props.getFloat("totalAngle", 30.0f);
+        const float falloffStart = props.getFloat("falloffStart", 25.0f);
+        if (!(totalAngle > 0.0f && totalAngle <= 90.0f))
+            props.fail("totalAngle must be in (0, 90] degrees, got %g", totalAngle);
+        if (!(falloffStart > 0.0f && falloffStart <= 90.0f))
+            props.fail("falloffStart must be in (0, 90] degrees, got %g", falloffStart);
+        if (falloffStart > totalAngle)
+            props.fail("falloffStart (%g degrees) must not exceed totalAngle (%g degrees)",
+                       falloffStart, totalAngle);
+        const Transform toWorld = props.getTransform("toWorld", Transform());
+        m_position = toWorld.applyPoint(Point3f::Zero());
+        // Directions are compared in a rigid frame, so scaling in toWorld cannot skew the cone.
+        const Vector3f axis = toWorld.applyVector(Vector3f::UnitZ());
+        if (!(axis.norm() > 0.0f)) props.fail("toWorld collapses the spotlight's axis");
+        m_frame = Frame(axis.normalized());
+
+        m_cosTotal = std::cos(degToRad(totalAngle));
+        m_cosStart = std::cos(degToRad(falloffStart));
+        // The two parts of the flux integral over cos theta (per 2 pi and per unit intensity).
+        m_innerMass = 1.0 - double(m_cosStart);
+        m_outerMass = (double(m_cosStart) - double(m_cosTotal)) / 5.0;
+        m_intensity = m_power / static_cast<float>(2.0 * M_PI * (m_innerMass + m_outerMass));
+    }
+
+    // The falloff factor for a direction at cos theta from the axis.
+    float falloff(float cosTheta) const {
+        if (cosTheta >= m_cosStart) return 1.0f;
+        if (cosTheta < m_cosTotal) return 0.0f;
+        const float delta = (cosTheta - m_cosTotal) / (m_cosStart - m_cosTotal);
+        return (delta * delta) * (delta * delta);
+    }
+
+    // Intensity (W/sr) towards the world direction `d` (unit).
+    Color3f intensity(const Vector3f& d) const { return m_intensity * falloff(m_frame.n.dot(d)); }
+
+    Color3f sample(EmitterQueryRecord& rec, const Point2f&) const override {
+        rec = EmitterQueryRecord(rec.ref, m_position, Normal3f::Zero());
+        const float dist2 = (m_position - rec.ref).squaredNorm();
+        if (!(dist2 > 0.0f) || rec.wi.isZero()) {
+            rec.pdf = 0.0f;
+            return Color3f(0.0f);
+        }
+        rec.pdf = 1.0f;  // delta position: the sample is certain
+        const Color3f result = intensity(-rec.wi) / dist2;
+        return result.isValid() ? result : Color3f(0.0f);
+    }
+
+    Color3f eval(const EmitterQueryRecord&) const override { return Color3f(0.0f); }
+    float pdf(const EmitterQueryRecord&) const override { return 0.0f; }
+    Color3f power() const override { return m_power; }
+
+    // Samples directions exactly in proportion to the intensity: cos theta is drawn from the
+    // two-part marginal (uniform in the inner cone, density ~ delta^4 between the cones,
+    // inverted as delta = u^(1/5)), phi uniformly. Every photon then carries exactly `power`.
+    Color3f samplePhoton(Ray3f& ray, const Point2f&, const Point2f& sample) const override {
+        const double total = m_innerMass + m_outerMass;
+        const double u = double(sample.x()) * total;
+        double cosTheta;
+        if (u < m_innerMass || m_outerMass == 0.0) {
+            cosTheta = 1.0 - u;
+        } else {
+            const double x = (u - m_innerMass) / m_outerMass;  // in [0, 1)
+            const double delta = std::pow(x, 0.2);
+            cosTheta = double(m_cosTotal) + delta * (double(m_cosStart) - double(m_cosTotal));
+        }
+        const double sinTheta = std::sqrt(std::max(0.0, 1.0 - cosTheta * cosTheta));
+        const double phi = 2.0 * M_PI * double(sample.y());
+        const Vector3f local(static_cast<float>(sinTheta * std::cos(phi)),
+                             static_cast<float>(sinTheta * std::sin(phi)),
+                             static_cast<float>(cosTheta));
+        ray = Ray3f(m_position, m_frame.toWorld(local));
+        return m_power;
+    }
+
+    bool isDelta() const override { return true; }
+    std::string toString() const override { return "spotlight, power " + m_power.toString(); }
+
+  private:
+    Point3f m_position;
+    Frame m_frame;
+    Color3f m_power, m_intensity;
+    float m_cosTotal, m_cosStart;
+    double m_innerMass, m_outerMass;
+};
+
+ALPHORN_REGISTER(Emitter, "spotlight", SpotLight);
+
+}  // namespace alphorn

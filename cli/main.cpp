@@ -14,6 +14,14 @@ int main(int argc, char** argv) {
 
     std::vector<alphorn::cli::Command> commands;
     commands.push_back(alphorn::cli::addRenderCommand(app));
+    commands.push_back(alphorn::cli::addSubmitCommand(app));
+    commands.push_back(alphorn::cli::addWatchCommand(app));
+    commands.push_back(alphorn::cli::addStatusCommand(app));
+    commands.push_back(alphorn::cli::addCancelCommand(app));
+    commands.push_back(alphorn::cli::addFetchCommand(app));
+    commands.push_back(alphorn::cli::addWorkersCommand(app));
+    commands.push_back(alphorn::cli::addClusterCommand(app));
+    commands.push_back(alphorn::cli::addTestCommand(app));
 
     try {
         app.parse(argc, argv);

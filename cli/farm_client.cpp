@@ -1,0 +1,191 @@
+#include "cli/farm_client.h"
+
+#include "cli/progress.h"
+#include "common/core/error.h"
+#include "common/farm/bundle.h"
+#include "common/farm/convert.h"
+#include "common/farm/rpc.h"
+#include "common/render/image_io.h"
+
+#include <absl/strings/str_format.h>
+#include <google/protobuf/util/json_util.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <thread>
+
+namespace alphorn::cli {
+
+namespace fs = std::filesystem;
+
+static std::string fromEnvironment(const char* name) {
+    const char* value = std::getenv(name);
+    return value ? value : "";
+}
+
+void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options) {
+    sub->add_option("--coordinator", options.coordinator,
+                    "Coordinator address host:port (or $ALPHORN_COORDINATOR)");
+    sub->add_option("--token-file", options.tokenFile,
+                    "Client token file (or $ALPHORN_TOKEN_FILE)");
+    sub->add_option("--tls-ca", options.tlsCa,
+                    "CA certificate to verify a TLS coordinator (or $ALPHORN_TLS_CA)");
+    sub->add_flag("--json", options.json, "Machine-readable JSON on stdout");
+}
+
+FarmClient::FarmClient(const FarmConnectionOptions& options) {
+    std::string address =
+        options.coordinator.empty() ? fromEnvironment("ALPHORN_COORDINATOR") : options.coordinator;
+    std::string tokenFile =
+        options.tokenFile.empty() ? fromEnvironment("ALPHORN_TOKEN_FILE") : options.tokenFile;
+    std::string tlsCa = options.tlsCa.empty() ? fromEnvironment("ALPHORN_TLS_CA") : options.tlsCa;
+    if (address.empty())
+        fail("no coordinator: pass --coordinator HOST:PORT or set ALPHORN_COORDINATOR");
+    if (tokenFile.empty()) fail("no token: pass --token-file F or set ALPHORN_TOKEN_FILE");
+    m_token = farm::readTokenFile(tokenFile);
+    m_stub = v1::ClientService::NewStub(farm::makeChannel(address, tlsCa));
+}
+
+std::unique_ptr<grpc::ClientContext> FarmClient::context(std::chrono::milliseconds timeout) const {
+    return farm::makeContext(m_token, timeout);
+}
+
+void FarmClient::check(const grpc::Status& status, const char* what) {
+    if (!status.ok()) fail("%s: %s", what, status.error_message());
+}
+
+std::string toJson(const google::protobuf::Message& message) {
+    std::string json;
+    google::protobuf::util::JsonPrintOptions options;
+    options.always_print_primitive_fields = true;
+    options.preserve_proto_field_names = true;
+    (void)google::protobuf::util::MessageToJsonString(message, &json, options);
+    return json;
+}
+
+v1::JobStatus FarmClient::submit(const std::string& scenePath, const v1::JobSettings& settings,
+                                 bool quiet) {
+    const farm::Bundle bundle = farm::gatherBundle(scenePath);
+
+    v1::HasBlobsRequest has;
+    for (const auto& file : bundle.files) has.add_sha256(file.sha256);
+    v1::HasBlobsResponse missing;
+    check(m_stub->HasBlobs(context().get(), has, &missing), "HasBlobs");
+    std::set<std::string> toUpload(missing.missing().begin(), missing.missing().end());
+
+    if (!toUpload.empty()) {
+        auto ctx = context(std::chrono::milliseconds(3600 * 1000));
+        v1::PutBlobsResponse response;
+        auto writer = m_stub->PutBlobs(ctx.get(), &response);
+        uint64_t bytes = 0;
+        for (const auto& file : bundle.files) {
+            if (!toUpload.erase(file.sha256)) continue;  // two paths with the same content go once
+            std::ifstream in(file.sourcePath, std::ios::binary);
+            if (!in) fail("%s: cannot open", file.sourcePath);
+            std::string buffer(farm::kChunkBytes, '\0');
+            bool more = true;
+            while (more) {
+                in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+                v1::BlobChunk chunk;
+                chunk.set_sha256(file.sha256);
+                chunk.set_data(buffer.substr(0, static_cast<size_t>(in.gcount())));
+                more = in.good();
+                chunk.set_last(!more);
+                bytes += chunk.data().size();
+                if (!writer->Write(chunk)) more = false;
+            }
+        }
+        writer->WritesDone();
+        check(writer->Finish(), "PutBlobs");
+        if (!quiet)
+            std::cerr << absl::StrFormat("uploaded %u blobs (%.1f KiB)\n", response.stored(),
+                                         bytes / 1024.0);
+    }
+
+    v1::SubmitJobRequest request;
+    *request.mutable_bundle() = farm::toProto(bundle);
+    *request.mutable_settings() = settings;
+    v1::SubmitJobResponse response;
+    check(m_stub->SubmitJob(context().get(), request, &response), "SubmitJob");
+    return response.status();
+}
+
+v1::JobStatus FarmClient::watch(uint64_t jobId, bool quiet) {
+    v1::WatchJobRequest request;
+    request.set_job_id(jobId);
+    int attempt = 0;
+    std::unique_ptr<ProgressLine> progress;
+    v1::JobStatus last;
+    for (;;) {
+        auto ctx = context(std::chrono::milliseconds(int64_t(30) * 24 * 3600 * 1000));
+        auto reader = m_stub->WatchJob(ctx.get(), request);
+        v1::JobStatus status;
+        while (reader->Read(&status)) {
+            attempt = 0;
+            last = status;
+            if (quiet) continue;
+            if (!progress)
+                progress = std::make_unique<ProgressLine>(absl::StrFormat("job %u", jobId),
+                                                          status.settings().passes());
+            progress->update(
+                status.passes_done(),
+                absl::StrFormat("%.2f Msamples/s  %u workers  %u/%u units",
+                                status.samples_per_second() * 1e-6, status.active_workers(),
+                                status.units_done(), status.units_total()));
+        }
+        grpc::Status finished = reader->Finish();
+        if (finished.ok() && last.state() != v1::JOB_STATE_RUNNING &&
+            last.state() != v1::JOB_STATE_UNSPECIFIED)
+            break;
+        // The coordinator went away (restart): keep watching once it is back.
+        const bool transient =
+            finished.error_code() == grpc::StatusCode::UNAVAILABLE || finished.ok();
+        if (!transient || attempt > 60) check(finished, "WatchJob");
+        std::this_thread::sleep_for(
+            std::chrono::milliseconds(std::min(2000, 100 << std::min(attempt, 5))));
+        ++attempt;
+    }
+    if (progress) progress->finish(farm::jobStateName(last.state()));
+    return last;
+}
+
+std::string FarmClient::getImage(uint64_t jobId, v1::ImageFormat format, bool preview,
+                                 v1::ImageChunk* header) {
+    v1::GetImageRequest request;
+    request.set_job_id(jobId);
+    request.set_format(format);
+    request.set_preview(preview);
+    auto ctx = context(std::chrono::milliseconds(600 * 1000));
+    auto reader = m_stub->GetImage(ctx.get(), request);
+    std::string bytes;
+    v1::ImageChunk chunk;
+    bool first = true;
+    while (reader->Read(&chunk)) {
+        if (first && header) {
+            *header = chunk;
+            header->clear_data();
+        }
+        first = false;
+        bytes += chunk.data();
+    }
+    check(reader->Finish(), "GetImage");
+    return bytes;
+}
+
+static void writeBytes(const std::string& path, const std::string& bytes) {
+    if (auto parent = fs::path(path).parent_path(); !parent.empty()) fs::create_directories(parent);
+    std::ofstream out(path + ".partial", std::ios::binary | std::ios::trunc);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.close();
+    if (!out) fail("%s: cannot write", path);
+    fs::rename(path + ".partial", path);
+}
+
+void FarmClient::fetchImages(uint64_t jobId, const std::string& exrPath, bool preview) {
+    writeBytes(exrPath, getImage(jobId, v1::IMAGE_FORMAT_EXR, preview));
+    writeBytes(pngPathFor(exrPath), getImage(jobId, v1::IMAGE_FORMAT_PNG, preview));
+}
+
+}  // namespace alphorn::cli

@@ -1,0 +1,76 @@
+// The CLI's side of the farm protocol: where the coordinator is, the client token, and the
+// calls the farm subcommands share (uploading a bundle, submitting, watching, fetching images).
+#pragma once
+
+#include "alphorn/v1/client_service.grpc.pb.h"
+
+#include <CLI/CLI.hpp>
+
+#include <memory>
+#include <string>
+
+namespace alphorn::cli {
+
+// Exit codes scripts can rely on.
+inline constexpr int kExitOk = 0;         // the job finished and its image was written
+inline constexpr int kExitError = 1;      // bad input, unreachable coordinator, refused call
+inline constexpr int kExitJobFailed = 3;  // the job failed or was cancelled
+
+struct FarmConnectionOptions {
+    std::string coordinator;  // default: $ALPHORN_COORDINATOR
+    std::string tokenFile;    // default: $ALPHORN_TOKEN_FILE
+    std::string tlsCa;        // default: $ALPHORN_TLS_CA; nonempty means TLS
+    bool json = false;
+};
+
+// Adds --coordinator, --token-file, --tls-ca and --json to a subcommand.
+void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options);
+
+class FarmClient {
+  public:
+    explicit FarmClient(const FarmConnectionOptions& options);
+
+    v1::ClientService::Stub& stub() { return *m_stub; }
+    std::unique_ptr<grpc::ClientContext> context(
+        std::chrono::milliseconds timeout = std::chrono::milliseconds(60000)) const;
+    // Throws Error with the status message (and the RPC's name) unless `status` is OK.
+    static void check(const grpc::Status& status, const char* what);
+
+    // Gathers the scene's bundle, uploads the blobs the coordinator lacks, submits the job.
+    v1::JobStatus submit(const std::string& scenePath, const v1::JobSettings& settings, bool quiet);
+    // Follows the job until it ends; shows a progress bar unless quiet. Returns the last status.
+    v1::JobStatus watch(uint64_t jobId, bool quiet);
+    // The whole image file (EXR, PNG or film).
+    std::string getImage(uint64_t jobId, v1::ImageFormat format, bool preview,
+                         v1::ImageChunk* header = nullptr);
+    // Writes OUT.exr and the PNG beside it.
+    void fetchImages(uint64_t jobId, const std::string& exrPath, bool preview);
+
+  private:
+    std::string m_token;
+    std::unique_ptr<v1::ClientService::Stub> m_stub;
+};
+
+std::string toJson(const google::protobuf::Message& message);
+
+}  // namespace alphorn::cli
+
+namespace alphorn::cli {
+
+struct SubmitOptions {
+    std::string scene;
+    std::string output;   // nonempty: wait for the job and write OUT.exr and OUT.png
+    uint32_t passes = 0;  // 0: the scene's sampleCount
+    uint64_t seed = 0;
+    uint32_t tile = 0;
+    uint32_t passesPerUnit = 0;
+    int32_t priority = 0;
+    std::string name;
+    std::string integrator;
+    bool watch = false;
+};
+
+// `alphorn submit` after option parsing; also what `alphorn cluster --render` runs.
+int runSubmit(FarmClient& client, const SubmitOptions& options, bool json);
+
+}  // namespace alphorn::cli

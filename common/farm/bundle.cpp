@@ -1,0 +1,112 @@
+#include "common/farm/bundle.h"
+
+#include "common/core/error.h"
+#include "common/farm/sha256.h"
+#include "common/scene/parser.h"
+
+#include <absl/strings/str_split.h>
+
+#include <filesystem>
+#include <map>
+#include <set>
+
+namespace alphorn::farm {
+
+namespace fs = std::filesystem;
+
+uint64_t Bundle::totalSize() const {
+    uint64_t total = 0;
+    for (const BundleEntry& file : files) total += file.size;
+    return total;
+}
+
+void validateBundlePath(const std::string& path) {
+    if (path.empty()) fail("bundle path is empty");
+    if (path.size() > 4096) fail("bundle path is longer than 4096 bytes");
+    if (path.front() == '/') fail("bundle path \"%s\" is absolute; paths must be relative", path);
+    if (path.find('\\') != std::string::npos || path.find('\0') != std::string::npos)
+        fail("bundle path \"%s\" contains a backslash or NUL byte", path);
+    for (absl::string_view part : absl::StrSplit(path, '/')) {
+        if (part == "..")
+            fail("bundle path \"%s\" contains \"..\"; paths may not leave the bundle", path);
+        if (part.empty() || part == ".")
+            fail("bundle path \"%s\" has an empty or \".\" component", path);
+    }
+}
+
+void validateBundle(const Bundle& bundle) {
+    std::set<std::string> paths;
+    for (const BundleEntry& file : bundle.files) {
+        validateBundlePath(file.path);
+        if (!isSha256Hex(file.sha256))
+            fail("bundle file \"%s\": \"%s\" is not a lowercase hex SHA-256", file.path,
+                 file.sha256);
+        if (!paths.insert(file.path).second) fail("bundle path \"%s\" appears twice", file.path);
+    }
+    // A file and a directory of the same name cannot both be materialized.
+    for (const std::string& path : paths)
+        for (size_t slash = path.find('/'); slash != std::string::npos;
+             slash = path.find('/', slash + 1))
+            if (paths.count(path.substr(0, slash)))
+                fail("bundle path \"%s\" is both a file and a directory", path.substr(0, slash));
+    if (!paths.count(bundle.scenePath))
+        fail("the scene \"%s\" is not one of the bundle's files", bundle.scenePath);
+}
+
+Bundle gatherBundle(const std::string& scenePath) {
+    ParseResult parsed = parseSceneFile(scenePath);
+    std::vector<fs::path> files{fs::weakly_canonical(fs::absolute(scenePath))};
+    for (const std::string& dependency : parsed.dependencies)
+        files.push_back(fs::weakly_canonical(fs::absolute(dependency)));
+
+    // The root: the longest common directory prefix of all files.
+    fs::path root = files.front().parent_path();
+    for (const fs::path& file : files) {
+        while (!root.empty()) {
+            auto [rootEnd, fileIt] =
+                std::mismatch(root.begin(), root.end(), file.begin(), file.end());
+            if (rootEnd == root.end()) break;
+            root = root.parent_path();
+        }
+    }
+
+    Bundle bundle;
+    std::map<std::string, BundleEntry> byPath;
+    for (const fs::path& file : files) {
+        BundleEntry entry;
+        entry.path = file.lexically_relative(root).generic_string();
+        entry.sourcePath = file.string();
+        if (byPath.count(entry.path)) continue;
+        std::error_code error;
+        entry.size = fs::file_size(file, error);
+        if (error) fail("%s: cannot read the size: %s", file.string(), error.message());
+        entry.sha256 = sha256OfFile(file.string());
+        validateBundlePath(entry.path);
+        byPath[entry.path] = entry;
+    }
+    bundle.scenePath = files.front().lexically_relative(root).generic_string();
+    for (auto& [path, entry] : byPath) bundle.files.push_back(std::move(entry));
+    return bundle;
+}
+
+std::string materializeBundle(const Bundle& bundle, const std::string& directory,
+                              const std::function<std::string(const std::string&)>& blobPath) {
+    validateBundle(bundle);
+    fs::create_directories(directory);
+    for (const BundleEntry& file : bundle.files) {
+        const fs::path target = fs::path(directory) / file.path;
+        fs::create_directories(target.parent_path());
+        std::error_code error;
+        fs::remove(target, error);
+        const std::string source = blobPath(file.sha256);
+        fs::create_hard_link(source, target, error);
+        if (error) {
+            fs::copy_file(source, target, fs::copy_options::overwrite_existing, error);
+            if (error)
+                fail("cannot materialize \"%s\" from %s: %s", file.path, source, error.message());
+        }
+    }
+    return (fs::path(directory) / bundle.scenePath).string();
+}
+
+}  // namespace alphorn::farm

@@ -1,0 +1,18 @@
+// Conversions between the wire messages (alphorn.v1) and the engine's types.
+#pragma once
+
+#include "alphorn/v1/farm.pb.h"
+#include "common/farm/bundle.h"
+#include "common/render/unit.h"
+
+namespace alphorn::farm {
+
+v1::BundleManifest toProto(const Bundle& bundle);
+Bundle fromProto(const v1::BundleManifest& manifest);
+
+v1::UnitSpec toProto(uint64_t jobId, uint32_t unitIndex, const RenderUnit& unit);
+RenderUnit fromProto(const v1::UnitSpec& spec);
+
+const char* jobStateName(v1::JobState state);
+
+}  // namespace alphorn::farm

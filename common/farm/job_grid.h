@@ -1,0 +1,41 @@
+// How a job is split into units: a fixed grid of pass chunks x tiles, chosen at submission and
+// never changed, so unit ids stay meaningful across coordinator restarts and worker retries.
+#pragma once
+
+#include "common/render/unit.h"
+
+#include <cstdint>
+#include <vector>
+
+namespace alphorn::farm {
+
+class JobGrid {
+  public:
+    JobGrid() = default;
+    // Throws Error on non-positive sizes, passes or tile size.
+    JobGrid(int width, int height, int tileSize, uint32_t passes, uint32_t passesPerUnit);
+
+    int width() const { return m_width; }
+    int height() const { return m_height; }
+    uint32_t passes() const { return m_passes; }
+    uint32_t passesPerUnit() const { return m_passesPerUnit; }
+    uint32_t tileCount() const { return static_cast<uint32_t>(m_tiles.size()); }
+    uint32_t chunkCount() const { return (m_passes + m_passesPerUnit - 1) / m_passesPerUnit; }
+    uint32_t unitCount() const { return chunkCount() * tileCount(); }
+
+    // Unit `index` = chunk * tileCount() + tile: all tiles of the first passes come first, so
+    // a preview fills the whole image early.
+    RenderUnit unit(uint32_t index) const;
+    uint32_t chunkOf(uint32_t index) const { return index / tileCount(); }
+    // Passes of chunk `chunk`: [chunk * passesPerUnit, min(passes, ...)).
+    uint32_t chunkPasses(uint32_t chunk) const;
+    // Passes whose every unit is merged, given a per-unit "merged" flag.
+    uint32_t passesComplete(const std::vector<bool>& merged) const;
+
+  private:
+    int m_width = 0, m_height = 0;
+    uint32_t m_passes = 0, m_passesPerUnit = 1;
+    std::vector<Tile> m_tiles;
+};
+
+}  // namespace alphorn::farm

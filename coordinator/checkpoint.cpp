@@ -1,0 +1,75 @@
+#include "coordinator/checkpoint.h"
+
+#include "common/core/error.h"
+#include "common/farm/files.h"
+#include "common/farm/film_codec.h"
+#include "common/farm/sha256.h"
+
+#include <cstring>
+
+namespace alphorn::coordinator {
+
+namespace {
+
+// Layout: magic, u32 width, u32 height, u32 units, u64 invalid samples, one byte per unit,
+// u64 compressed film size, compressed film, then the SHA-256 (hex) of everything before it.
+constexpr char kMagic[8] = {'A', 'L', 'P', 'H', 'C', 'K', 'P', '1'};
+
+template <typename T>
+void put(std::string& out, T value) {
+    out.append(reinterpret_cast<const char*>(&value), sizeof value);
+}
+
+template <typename T>
+T take(const std::string& in, size_t& offset) {
+    if (offset + sizeof(T) > in.size()) fail("checkpoint is truncated");
+    T value;
+    std::memcpy(&value, in.data() + offset, sizeof value);
+    offset += sizeof value;
+    return value;
+}
+
+}  // namespace
+
+void writeCheckpoint(const std::string& path, const FilmBlock& film,
+                     const std::vector<bool>& merged) {
+    std::string out(kMagic, sizeof kMagic);
+    put<uint32_t>(out, static_cast<uint32_t>(film.width()));
+    put<uint32_t>(out, static_cast<uint32_t>(film.height()));
+    put<uint32_t>(out, static_cast<uint32_t>(merged.size()));
+    put<uint64_t>(out, film.invalidSamples);
+    for (bool m : merged) out.push_back(m ? 1 : 0);
+    const std::string compressed = farm::compressFilm(film);
+    put<uint64_t>(out, compressed.size());
+    out += compressed;
+    out += farm::sha256Hex(out);
+    farm::writeFileAtomically(path, out);
+}
+
+Checkpoint readCheckpoint(const std::string& path, int width, int height, uint32_t unitCount) {
+    const std::string in = farm::readFile(path);
+    if (in.size() < sizeof kMagic + 64 || std::memcmp(in.data(), kMagic, sizeof kMagic) != 0)
+        fail("%s: not an Alphorn checkpoint", path);
+    const std::string body = in.substr(0, in.size() - 64);
+    if (farm::sha256Hex(body) != in.substr(in.size() - 64))
+        fail("%s: checkpoint checksum mismatch", path);
+    size_t offset = sizeof kMagic;
+    const uint32_t w = take<uint32_t>(body, offset), h = take<uint32_t>(body, offset);
+    const uint32_t units = take<uint32_t>(body, offset);
+    if (int(w) != width || int(h) != height || units != unitCount)
+        fail("%s: checkpoint is for a %ux%u image with %u units, expected %dx%d with %u", path, w,
+             h, units, width, height, unitCount);
+    Checkpoint checkpoint;
+    const uint64_t invalid = take<uint64_t>(body, offset);
+    if (offset + units > body.size()) fail("%s: checkpoint is truncated", path);
+    for (uint32_t i = 0; i < units; ++i) checkpoint.merged.push_back(body[offset + i] != 0);
+    offset += units;
+    const uint64_t compressedSize = take<uint64_t>(body, offset);
+    if (offset + compressedSize != body.size()) fail("%s: checkpoint is truncated", path);
+    checkpoint.film = FilmBlock(0, 0, width, height);
+    farm::decompressFilm(body.substr(offset), checkpoint.film);
+    checkpoint.film.invalidSamples = invalid;
+    return checkpoint;
+}
+
+}  // namespace alphorn::coordinator

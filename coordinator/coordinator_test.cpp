@@ -1,0 +1,236 @@
+// Unit tests of the coordinator's core without sockets: blob store checks, checkpoints, and a
+// whole job driven through Coordinator (submit, lease, report out of order, late and duplicate
+// results, restart from the checkpoint) compared byte for byte with renderLocal().
+#include "coordinator/coordinator.h"
+#include "common/farm/bundle.h"
+#include "common/farm/convert.h"
+#include "common/farm/files.h"
+#include "common/farm/film_codec.h"
+#include "common/farm/sha256.h"
+#include "common/render/local_render.h"
+#include "common/scene/parser.h"
+#include "common/scene/scene.h"
+#include "coordinator/checkpoint.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+namespace alphorn::coordinator {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path freshDirectory(const std::string& name) {
+    fs::path path =
+        fs::temp_directory_path() / ("alphorn_" + name + "_" + std::to_string(::getpid()));
+    fs::remove_all(path);
+    fs::create_directories(path);
+    return path;
+}
+
+TEST(BlobStore, VerifiesLimitsAndDeduplicates) {
+    const fs::path dir = freshDirectory("blobs");
+    BlobStore store(dir.string(), 10);
+    {
+        BlobStore::Upload upload(store, farm::sha256Hex("hello"));
+        upload.append("hello");
+        EXPECT_TRUE(upload.commit());
+    }
+    EXPECT_TRUE(store.has(farm::sha256Hex("hello")));
+    EXPECT_EQ(store.size(farm::sha256Hex("hello")), 5u);
+    {
+        BlobStore::Upload again(store, farm::sha256Hex("hello"));
+        again.append("hello");
+        EXPECT_FALSE(again.commit());  // already there
+    }
+    {
+        BlobStore::Upload forged(store, farm::sha256Hex("other"));
+        forged.append("hello");
+        EXPECT_THROW(forged.commit(), Error);
+    }
+    EXPECT_FALSE(store.has(farm::sha256Hex("other")));
+    {
+        BlobStore::Upload big(store, farm::sha256Hex("0123456789ab"));
+        EXPECT_THROW(big.append("0123456789ab"), Error);
+    }
+    EXPECT_THROW(BlobStore::Upload(store, "../../etc/passwd"), Error);
+    EXPECT_FALSE(store.has("../../etc/passwd"));
+    fs::remove_all(dir);
+}
+
+TEST(Checkpoint, RoundTripAndCorruption) {
+    const fs::path dir = freshDirectory("checkpoint");
+    FilmBlock film(0, 0, 5, 4);
+    film.at(3, 2).rgb[1] = FixedPoint(77) << 64;
+    film.at(3, 2).weight = 5;
+    film.invalidSamples = 3;
+    const std::vector<bool> merged{true, false, true};
+    const std::string path = (dir / "film.ckpt").string();
+    writeCheckpoint(path, film, merged);
+    Checkpoint back = readCheckpoint(path, 5, 4, 3);
+    EXPECT_EQ(back.film.serialize(), film.serialize());
+    EXPECT_EQ(back.merged, merged);
+    EXPECT_EQ(back.film.invalidSamples, 3u);
+    EXPECT_THROW(readCheckpoint(path, 5, 4, 4), Error);  // another job's shape
+    std::string bytes = farm::readFile(path);
+    bytes[20] ^= 1;
+    farm::writeFileAtomically(path, bytes);
+    EXPECT_THROW(readCheckpoint(path, 5, 4, 3), Error);
+    fs::remove_all(dir);
+}
+
+class CoordinatorJob : public ::testing::Test {
+  protected:
+    void SetUp() override {
+        m_dir = freshDirectory("coordinator");
+        fs::create_directories(m_dir / "scene");
+        fs::copy_file(fs::path(ALPHORN_SOURCE_DIR) / "scenes/meshes/sphere.obj",
+                      m_dir / "scene/sphere.obj");
+        std::ofstream(m_dir / "scene/s.xml") << R"(<scene>
+  <integrator type="normals"/>
+  <camera type="perspective">
+    <transform name="toWorld"><lookat origin="3, 2, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <integer name="width" value="40"/><integer name="height" value="30"/>
+  </camera>
+  <mesh type="obj"><string name="filename" value="sphere.obj"/></mesh>
+</scene>)";
+        m_options.stateDirectory = (m_dir / "state").string();
+        m_options.leaseSeconds = 60;
+    }
+    void TearDown() override { fs::remove_all(m_dir); }
+
+    v1::SubmitJobRequest upload(Coordinator& coordinator) {
+        farm::Bundle bundle = farm::gatherBundle((m_dir / "scene/s.xml").string());
+        for (const auto& file : bundle.files) {
+            BlobStore::Upload blob(coordinator.blobs(), file.sha256);
+            blob.append(farm::readFile(file.sourcePath));
+            blob.commit();
+        }
+        v1::SubmitJobRequest request;
+        *request.mutable_bundle() = farm::toProto(bundle);
+        request.mutable_settings()->set_passes(3);
+        request.mutable_settings()->set_seed(5);
+        request.mutable_settings()->set_tile_size(16);
+        request.mutable_settings()->set_passes_per_unit(1);
+        return request;
+    }
+
+    // Renders a leased unit the way a worker does.
+    v1::ResultChunk render(const v1::AcquireWorkResponse& lease, uint64_t workerId,
+                           std::string& compressed) {
+        auto scene = loadScene((m_dir / "scene/s.xml").string());
+        const RenderUnit unit = farm::fromProto(lease.unit());
+        FilmBlock block = makeUnitBlock(*scene, unit.tile);
+        renderUnit(*scene, 5, unit, preparePasses(*scene, 5, unit.passBegin, unit.passEnd), block);
+        compressed = farm::compressFilm(block);
+        v1::ResultChunk header;
+        header.set_worker_id(workerId);
+        header.set_lease_id(lease.lease_id());
+        header.set_job_id(lease.unit().job_id());
+        header.set_unit_index(lease.unit().unit_index());
+        header.set_block_x0(block.x0());
+        header.set_block_y0(block.y0());
+        header.set_block_width(block.width());
+        header.set_block_height(block.height());
+        header.set_compressed_size(compressed.size());
+        header.set_compressed_sha256(farm::sha256Hex(compressed));
+        return header;
+    }
+
+    fs::path m_dir;
+    CoordinatorOptions m_options;
+};
+
+TEST_F(CoordinatorJob, ReverseOrderDuplicatesAndRestartGiveTheLocalFilm) {
+    auto scene = loadScene((m_dir / "scene/s.xml").string());
+    RenderSettings settings;
+    settings.seed = 5;
+    settings.passes = 3;
+    const std::string expected = renderLocal(*scene, settings).serialize();
+
+    uint64_t jobId = 0;
+    uint32_t mergedBeforeRestart = 0;
+    {
+        Coordinator coordinator(m_options);
+        const v1::JobStatus submitted = coordinator.submit(upload(coordinator));
+        jobId = submitted.job_id();
+        const uint32_t total = submitted.units_total();
+        EXPECT_EQ(total, 3u * 6u);  // 3 passes x (3 x 2 tiles of 16 px)
+        v1::RegisterRequest registration;
+        registration.set_name("test");
+        const uint64_t worker = coordinator.registerWorker(registration);
+        std::vector<v1::AcquireWorkResponse> leases;
+        for (uint32_t i = 0; i < total; ++i) {
+            leases.push_back(coordinator.acquire(worker, std::chrono::steady_clock::now()));
+            ASSERT_TRUE(leases.back().has_work());
+        }
+        EXPECT_FALSE(coordinator.acquire(worker, std::chrono::steady_clock::now()).has_work());
+        // Deliver the second half in reverse order, one unit twice, then "crash".
+        for (uint32_t i = total - 1; i >= total / 2; --i) {
+            std::string compressed;
+            const v1::ResultChunk header = render(leases[i], worker, compressed);
+            EXPECT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
+            if (i == total - 1) {
+                EXPECT_EQ(coordinator.report(header, compressed), v1::RESULT_DISCARDED);
+            }
+        }
+        mergedBeforeRestart = total - total / 2;
+        // The heartbeat fences merged units and keeps the others.
+        v1::HeartbeatRequest heartbeat;
+        heartbeat.set_worker_id(worker);
+        heartbeat.add_lease_ids(leases[0].lease_id());
+        heartbeat.add_lease_ids(leases[total - 1].lease_id());
+        const v1::HeartbeatResponse response = coordinator.heartbeat(heartbeat);
+        ASSERT_EQ(response.drop_lease_ids_size(), 1);
+        EXPECT_EQ(response.drop_lease_ids(0), leases[total - 1].lease_id());
+        coordinator.stop();  // checkpoints
+    }
+    Coordinator coordinator(m_options);
+    v1::JobStatus status = coordinator.listJobs(jobId).at(0);
+    EXPECT_EQ(status.state(), v1::JOB_STATE_RUNNING);
+    EXPECT_EQ(status.units_restored(), mergedBeforeRestart);
+    v1::RegisterRequest registration;
+    const uint64_t worker = coordinator.registerWorker(registration);
+    for (;;) {
+        const v1::AcquireWorkResponse lease =
+            coordinator.acquire(worker, std::chrono::steady_clock::now());
+        if (!lease.has_work()) break;
+        EXPECT_LT(lease.unit().unit_index(), status.units_total() / 2)
+            << "a restored unit was leased again";
+        std::string compressed;
+        const v1::ResultChunk header = render(lease, worker, compressed);
+        EXPECT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
+    }
+    status = coordinator.listJobs(jobId).at(0);
+    EXPECT_EQ(status.state(), v1::JOB_STATE_DONE);
+    EXPECT_EQ(status.units_merged_this_run() + status.units_restored(), status.units_total());
+    EXPECT_EQ(coordinator.snapshot(jobId, false).film.serialize(), expected);
+}
+
+TEST_F(CoordinatorJob, BrokenSceneIsRefusedWithFileAndLine) {
+    std::ofstream(m_dir / "scene/s.xml")
+        << "<scene>\n  <integrator type=\"no_such_integrator\"/>\n</scene>\n";
+    Coordinator coordinator(m_options);
+    farm::Bundle bundle;
+    bundle.scenePath = "s.xml";
+    const std::string text = farm::readFile((m_dir / "scene/s.xml").string());
+    BlobStore::Upload blob(coordinator.blobs(), farm::sha256Hex(text));
+    blob.append(text);
+    blob.commit();
+    bundle.files.push_back({"s.xml", farm::sha256Hex(text), text.size(), ""});
+    v1::SubmitJobRequest request;
+    *request.mutable_bundle() = farm::toProto(bundle);
+    try {
+        coordinator.submit(request);
+        FAIL() << "a broken scene was accepted";
+    } catch (const FarmError& e) {
+        EXPECT_EQ(e.kind, FarmError::Kind::InvalidArgument);
+        EXPECT_EQ(std::string(e.what()).rfind("s.xml:2:", 0), 0u) << e.what();
+    }
+    EXPECT_TRUE(coordinator.listJobs(0).empty());
+}
+
+}  // namespace
+}  // namespace alphorn::coordinator

@@ -1,0 +1,103 @@
+// alphorn-coordinator: the farm's long-running daemon. It accepts jobs from clients, leases
+// units to workers, merges their results exactly and checkpoints every job, so that a restart
+// on the same --state-dir resumes everything. See docs/operations.md.
+#include "common/farm/rpc.h"
+#include "coordinator/coordinator.h"
+#include "coordinator/log.h"
+#include "coordinator/services.h"
+
+#include <CLI/CLI.hpp>
+
+#include <csignal>
+#include <fstream>
+#include <iostream>
+
+using namespace alphorn;
+using namespace alphorn::coordinator;
+
+int main(int argc, char** argv) {
+    CLI::App app{
+        "alphorn-coordinator: schedules render units to workers and merges their results."};
+    app.set_version_flag("--version", std::string("alphorn-coordinator ") + ALPHORN_VERSION);
+    std::string listen = "127.0.0.1:7700", clientTokenFile, workerTokenFile, tlsCert, tlsKey,
+                portFile;
+    CoordinatorOptions options;
+    app.add_option("--listen", listen, "Address to listen on (host:port; port 0 picks a free one)");
+    app.add_option("--state-dir", options.stateDirectory,
+                   "Directory for the database, blobs and checkpoints")
+        ->required();
+    app.add_option("--client-token-file", clientTokenFile, "File holding the clients' bearer token")
+        ->required();
+    app.add_option("--worker-token-file", workerTokenFile, "File holding the workers' bearer token")
+        ->required();
+    app.add_option("--tls-cert", tlsCert, "PEM certificate chain: serve TLS (with --tls-key)");
+    app.add_option("--tls-key", tlsKey, "PEM private key of --tls-cert");
+    app.add_option("--checkpoint-interval", options.checkpointIntervalSeconds,
+                   "Seconds between film checkpoints")
+        ->check(CLI::Range(0.05, 3600.0));
+    app.add_option("--lease-seconds", options.leaseSeconds,
+                   "Seconds a unit lease lasts without a heartbeat")
+        ->check(CLI::Range(0.2, 86400.0));
+    app.add_option("--max-attempts", options.maxAttempts,
+                   "Failed attempts after which a unit fails its job")
+        ->check(CLI::Range(1, 1000));
+    app.add_option("--max-blob-bytes", options.maxBlobBytes, "Largest blob accepted");
+    app.add_option("--max-bundle-bytes", options.maxBundleBytes, "Largest scene bundle accepted");
+    app.add_option("--max-image-pixels", options.maxImagePixels,
+                   "Largest image (width x height) accepted");
+    app.add_option("--max-passes", options.maxPasses, "Most passes a job may ask for");
+    app.add_option("--port-file", portFile, "Write the bound port to this file once listening");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    }
+
+    // Signals are taken by a dedicated thread (sigwait), so every other thread blocks them.
+    sigset_t signals;
+    sigemptyset(&signals);
+    sigaddset(&signals, SIGTERM);
+    sigaddset(&signals, SIGINT);
+    pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+    try {
+        const std::string clientToken = farm::readTokenFile(clientTokenFile);
+        const std::string workerToken = farm::readTokenFile(workerTokenFile);
+        if (clientToken == workerToken)
+            fail(
+                "the client and worker tokens must differ (a worker must not be able to submit "
+                "jobs)");
+        Coordinator coordinator(options);
+        ClientServiceImpl clientService(coordinator, clientToken);
+        WorkerServiceImpl workerService(coordinator, workerToken);
+
+        grpc::ServerBuilder builder;
+        int port = 0;
+        builder.AddListeningPort(listen, farm::makeServerCredentials(tlsCert, tlsKey), &port);
+        builder.SetMaxReceiveMessageSize(farm::kMaxMessageBytes);
+        builder.SetMaxSendMessageSize(farm::kMaxMessageBytes);
+        builder.RegisterService(&clientService);
+        builder.RegisterService(&workerService);
+        std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+        if (!server || port == 0) fail("cannot listen on %s", listen);
+        coordinator.start();
+        logInfo("coordinator.listening", {field("address", listen), field("port", port),
+                                          field("tls", tlsCert.empty() ? "off" : "on"),
+                                          field("state_dir", options.stateDirectory)});
+        if (!portFile.empty()) {
+            std::ofstream(portFile + ".tmp") << port << "\n";
+            std::rename((portFile + ".tmp").c_str(), portFile.c_str());
+        }
+
+        int signal = 0;
+        sigwait(&signals, &signal);
+        logInfo("coordinator.stopping", {field("signal", signal)});
+        coordinator.beginStop();
+        server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
+        coordinator.stop();
+        return 0;
+    } catch (const std::exception& e) {
+        std::cerr << "alphorn-coordinator: error: " << e.what() << "\n";
+        return 1;
+    }
+}

@@ -1,0 +1,336 @@
+#include "coordinator/services.h"
+
+#include "common/farm/film_codec.h"
+#include "common/farm/rpc.h"
+#include "common/farm/sha256.h"
+#include "common/render/image_io.h"
+#include "coordinator/log.h"
+
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+namespace alphorn::coordinator {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+grpc::Status toStatus(const std::exception& e) {
+    if (auto* farmError = dynamic_cast<const FarmError*>(&e)) {
+        switch (farmError->kind) {
+            case FarmError::Kind::InvalidArgument:
+                return {grpc::StatusCode::INVALID_ARGUMENT, e.what()};
+            case FarmError::Kind::NotFound:
+                return {grpc::StatusCode::NOT_FOUND, e.what()};
+            case FarmError::Kind::FailedPrecondition:
+                return {grpc::StatusCode::FAILED_PRECONDITION, e.what()};
+            case FarmError::Kind::ResourceExhausted:
+                return {grpc::StatusCode::RESOURCE_EXHAUSTED, e.what()};
+        }
+    }
+    if (dynamic_cast<const Error*>(&e)) return {grpc::StatusCode::INVALID_ARGUMENT, e.what()};
+    logWarning("rpc.internal_error", {field("error", e.what())});
+    return {grpc::StatusCode::INTERNAL, e.what()};
+}
+
+// Runs `body` after the token check, turning exceptions into statuses.
+template <typename Body>
+grpc::Status guarded(grpc::ServerContext* context, const std::string& token, const char* rpc,
+                     Body&& body) {
+    grpc::Status auth = farm::checkBearer(*context, token);
+    if (!auth.ok()) {
+        logWarning("rpc.refused", {field("rpc", rpc), field("peer", context->peer()),
+                                   field("reason", auth.error_message())});
+        return auth;
+    }
+    try {
+        return body();
+    } catch (const std::exception& e) {
+        return toStatus(e);
+    }
+}
+
+template <typename Chunk>
+bool streamBytes(grpc::ServerWriter<Chunk>* writer, const std::string& bytes,
+                 const std::function<void(Chunk&)>& first) {
+    size_t offset = 0;
+    do {
+        Chunk chunk;
+        if (offset == 0) first(chunk);
+        const size_t n = std::min(farm::kChunkBytes, bytes.size() - offset);
+        chunk.set_data(bytes.substr(offset, n));
+        offset += n;
+        if (!writer->Write(chunk)) return false;
+    } while (offset < bytes.size());
+    return true;
+}
+
+}  // namespace
+
+// ---- client ------------------------------------------------------------------------------------
+
+grpc::Status ClientServiceImpl::HasBlobs(grpc::ServerContext* context,
+                                         const v1::HasBlobsRequest* request,
+                                         v1::HasBlobsResponse* response) {
+    return guarded(context, m_token, "HasBlobs", [&] {
+        for (const std::string& sha : request->sha256())
+            if (!m_coordinator.blobs().has(sha)) response->add_missing(sha);
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status ClientServiceImpl::PutBlobs(grpc::ServerContext* context,
+                                         grpc::ServerReader<v1::BlobChunk>* reader,
+                                         v1::PutBlobsResponse* response) {
+    return guarded(context, m_token, "PutBlobs", [&] {
+        std::unique_ptr<BlobStore::Upload> upload;
+        std::string current;
+        uint64_t size = 0;
+        v1::BlobChunk chunk;
+        while (reader->Read(&chunk)) {
+            if (current.empty()) {
+                current = chunk.sha256();
+                size = 0;
+                try {
+                    upload = std::make_unique<BlobStore::Upload>(m_coordinator.blobs(), current);
+                } catch (const Error& e) {
+                    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, e.what());
+                }
+            } else if (!chunk.sha256().empty() && chunk.sha256() != current) {
+                return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                                    "a new blob started before the last chunk of " + current);
+            }
+            size += chunk.data().size();
+            try {
+                upload->append(chunk.data());
+            } catch (const Error& e) {
+                logWarning("blob.refused", {field("sha256", current), field("reason", e.what())});
+                return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, e.what());
+            }
+            if (chunk.last()) {
+                try {
+                    if (upload->commit()) {
+                        m_coordinator.recordBlob(current, size);
+                        response->set_stored(response->stored() + 1);
+                    } else {
+                        response->set_already_present(response->already_present() + 1);
+                    }
+                } catch (const Error& e) {
+                    logWarning("blob.refused",
+                               {field("sha256", current), field("reason", e.what())});
+                    return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, e.what());
+                }
+                upload.reset();
+                current.clear();
+            }
+        }
+        if (!current.empty())
+            return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                                "the stream ended inside blob " + current);
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status ClientServiceImpl::SubmitJob(grpc::ServerContext* context,
+                                          const v1::SubmitJobRequest* request,
+                                          v1::SubmitJobResponse* response) {
+    return guarded(context, m_token, "SubmitJob", [&] {
+        try {
+            *response->mutable_status() = m_coordinator.submit(*request);
+        } catch (const FarmError& e) {
+            logWarning("job.refused", {field("reason", e.what())});
+            throw;
+        }
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context,
+                                         const v1::WatchJobRequest* request,
+                                         grpc::ServerWriter<v1::JobStatus>* writer) {
+    return guarded(context, m_token, "WatchJob", [&] {
+        std::string last;
+        auto lastSent = std::chrono::steady_clock::now();
+        for (;;) {
+            v1::JobStatus status = m_coordinator.listJobs(request->job_id()).at(0);
+            v1::JobStatus comparable = status;
+            comparable.clear_elapsed_seconds();
+            comparable.clear_eta_seconds();
+            comparable.clear_samples_per_second();
+            std::string serialized = comparable.SerializeAsString();
+            const auto now = std::chrono::steady_clock::now();
+            if (serialized != last || now - lastSent > std::chrono::seconds(2)) {
+                if (!writer->Write(status)) return grpc::Status::OK;
+                last = std::move(serialized);
+                lastSent = now;
+            }
+            if (status.state() != v1::JOB_STATE_RUNNING) return grpc::Status::OK;
+            if (context->IsCancelled()) return grpc::Status::CANCELLED;
+            std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        }
+    });
+}
+
+grpc::Status ClientServiceImpl::GetImage(grpc::ServerContext* context,
+                                         const v1::GetImageRequest* request,
+                                         grpc::ServerWriter<v1::ImageChunk>* writer) {
+    return guarded(context, m_token, "GetImage", [&] {
+        Coordinator::ImageSnapshot snapshot =
+            m_coordinator.snapshot(request->job_id(), request->preview());
+        const v1::JobStatus& status = snapshot.status;
+        std::string bytes;
+        if (request->format() == v1::IMAGE_FORMAT_FILM) {
+            bytes = farm::compressFilm(snapshot.film);
+        } else {
+            // The very same writeEXR(resolveImage(film)) as `alphorn render`: the same bytes.
+            const Image image =
+                resolveImage(snapshot.film, int(status.width()), int(status.height()));
+            const bool png = request->format() == v1::IMAGE_FORMAT_PNG;
+            const std::string path =
+                (fs::path(m_coordinator.options().stateDirectory) / "tmp" /
+                 (farm::generateToken().substr(0, 16) + (png ? ".png" : ".exr")))
+                    .string();
+            if (png)
+                writePNG(path, image, request->exposure());
+            else
+                writeEXR(path, image);
+            std::ifstream file(path, std::ios::binary);
+            bytes.assign(std::istreambuf_iterator<char>(file), {});
+            fs::remove(path);
+        }
+        streamBytes<v1::ImageChunk>(writer, bytes, [&](v1::ImageChunk& chunk) {
+            chunk.set_total_size(bytes.size());
+            chunk.set_width(status.width());
+            chunk.set_height(status.height());
+            chunk.set_passes_done(status.passes_done());
+            chunk.set_state(status.state());
+        });
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status ClientServiceImpl::CancelJob(grpc::ServerContext* context,
+                                          const v1::CancelJobRequest* request,
+                                          v1::CancelJobResponse* response) {
+    return guarded(context, m_token, "CancelJob", [&] {
+        *response->mutable_status() = m_coordinator.cancel(request->job_id());
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status ClientServiceImpl::ListJobs(grpc::ServerContext* context,
+                                         const v1::ListJobsRequest* request,
+                                         v1::ListJobsResponse* response) {
+    return guarded(context, m_token, "ListJobs", [&] {
+        for (auto& status : m_coordinator.listJobs(request->job_id()))
+            *response->add_jobs() = std::move(status);
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context,
+                                            const v1::ListWorkersRequest* request,
+                                            v1::ListWorkersResponse* response) {
+    return guarded(context, m_token, "ListWorkers", [&] {
+        for (auto& worker : m_coordinator.listWorkers(request->include_dead()))
+            *response->add_workers() = std::move(worker);
+        return grpc::Status::OK;
+    });
+}
+
+// ---- workers -----------------------------------------------------------------------------------
+
+grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context,
+                                         const v1::RegisterRequest* request,
+                                         v1::RegisterResponse* response) {
+    return guarded(context, m_token, "Register", [&] {
+        response->set_worker_id(m_coordinator.registerWorker(*request));
+        response->set_heartbeat_interval_seconds(
+            std::max(0.1, m_coordinator.options().leaseSeconds / 4));
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status WorkerServiceImpl::AcquireWork(grpc::ServerContext* context,
+                                            const v1::AcquireWorkRequest* request,
+                                            v1::AcquireWorkResponse* response) {
+    return guarded(context, m_token, "AcquireWork", [&] {
+        // Long poll: wait up to 2 s for work, so idle workers neither spin nor lag behind a submit.
+        auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+        *response = m_coordinator.acquire(request->worker_id(), until);
+        if (response->has_work())
+            logInfo("unit.leased",
+                    {field("job", response->unit().job_id()),
+                     field("unit", response->unit().unit_index()),
+                     field("worker", request->worker_id()), field("lease", response->lease_id())});
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext* context,
+                                          const v1::HeartbeatRequest* request,
+                                          v1::HeartbeatResponse* response) {
+    return guarded(context, m_token, "Heartbeat", [&] {
+        *response = m_coordinator.heartbeat(*request);
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status WorkerServiceImpl::ReportResult(grpc::ServerContext* context,
+                                             grpc::ServerReader<v1::ResultChunk>* reader,
+                                             v1::ReportResultResponse* response) {
+    return guarded(context, m_token, "ReportResult", [&] {
+        v1::ResultChunk header;
+        if (!reader->Read(&header))
+            return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "empty result stream");
+        std::string data = header.data();
+        header.clear_data();
+        const uint64_t limit = m_coordinator.maxResultBytes(header.job_id());
+        if (limit == 0) return grpc::Status(grpc::StatusCode::NOT_FOUND, "no such job");
+        if (header.error().empty() && !header.handed_back() && header.compressed_size() > limit)
+            return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
+                                "the result is larger than any unit of the job");
+        v1::ResultChunk chunk;
+        while (reader->Read(&chunk)) {
+            data += chunk.data();
+            if (data.size() > header.compressed_size())
+                return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                                    "more result bytes than announced");
+        }
+        if (data.size() != header.compressed_size())
+            return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                                "the result stream ended early");
+        const v1::ResultDisposition disposition = m_coordinator.report(header, data);
+        response->set_disposition(disposition);
+        if (disposition == v1::RESULT_MERGED)
+            logInfo("unit.merged",
+                    {field("job", header.job_id()), field("unit", header.unit_index()),
+                     field("worker", header.worker_id()), field("bytes", data.size())});
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status WorkerServiceImpl::GetBlob(grpc::ServerContext* context,
+                                        const v1::GetBlobRequest* request,
+                                        grpc::ServerWriter<v1::GetBlobChunk>* writer) {
+    return guarded(context, m_token, "GetBlob", [&] {
+        if (!m_coordinator.blobs().has(request->sha256()))
+            return grpc::Status(grpc::StatusCode::NOT_FOUND, "no blob " + request->sha256());
+        std::ifstream file(m_coordinator.blobs().pathOf(request->sha256()), std::ios::binary);
+        const uint64_t total = m_coordinator.blobs().size(request->sha256());
+        std::string buffer(farm::kChunkBytes, '\0');
+        bool first = true;
+        do {
+            file.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+            v1::GetBlobChunk chunk;
+            if (first) chunk.set_total_size(total);
+            first = false;
+            chunk.set_data(buffer.substr(0, static_cast<size_t>(file.gcount())));
+            if (!writer->Write(chunk)) break;
+        } while (file);
+        return grpc::Status::OK;
+    });
+}
+
+}  // namespace alphorn::coordinator

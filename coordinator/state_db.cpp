@@ -1,0 +1,147 @@
+#include "coordinator/state_db.h"
+
+#include "common/core/error.h"
+
+#include <sqlite3.h>
+
+namespace alphorn::coordinator {
+
+namespace {
+
+constexpr const char* kSchema = R"sql(
+CREATE TABLE IF NOT EXISTS jobs(
+  id INTEGER PRIMARY KEY AUTOINCREMENT,
+  description BLOB NOT NULL,   -- serialized alphorn.v1.JobDescription (bundle + settings)
+  state INTEGER NOT NULL,      -- alphorn.v1.JobState
+  error TEXT NOT NULL DEFAULT '',
+  width INTEGER NOT NULL,
+  height INTEGER NOT NULL,
+  filter_border INTEGER NOT NULL,
+  created_at REAL NOT NULL,
+  finished_at REAL);
+CREATE TABLE IF NOT EXISTS units(
+  job_id INTEGER NOT NULL,
+  unit_index INTEGER NOT NULL,
+  attempts INTEGER NOT NULL,   -- failed attempts: worker errors and expired leases
+  last_error TEXT NOT NULL,
+  PRIMARY KEY(job_id, unit_index));
+CREATE TABLE IF NOT EXISTS blobs(
+  sha256 TEXT PRIMARY KEY,
+  size INTEGER NOT NULL,
+  stored_at REAL NOT NULL);
+CREATE TABLE IF NOT EXISTS workers(
+  id INTEGER PRIMARY KEY AUTOINCREMENT,
+  name TEXT NOT NULL,
+  cores INTEGER NOT NULL,
+  memory_bytes INTEGER NOT NULL,
+  version TEXT NOT NULL,
+  registered_at REAL NOT NULL);
+)sql";
+
+struct Statement {
+    sqlite3_stmt* handle = nullptr;
+    ~Statement() { sqlite3_finalize(handle); }
+};
+
+}  // namespace
+
+StateDatabase::StateDatabase(const std::string& path) {
+    if (sqlite3_open_v2(path.c_str(), &m_db,
+                        SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
+                        nullptr) != SQLITE_OK) {
+        std::string message = m_db ? sqlite3_errmsg(m_db) : "out of memory";
+        sqlite3_close(m_db);
+        fail("%s: cannot open the state database: %s", path, message);
+    }
+    sqlite3_busy_timeout(m_db, 5000);
+    // WAL + synchronous=FULL: a committed transaction survives a crash of the process or the
+    // machine.
+    execute("PRAGMA journal_mode=WAL");
+    execute("PRAGMA synchronous=FULL");
+    char* error = nullptr;
+    if (sqlite3_exec(m_db, kSchema, nullptr, nullptr, &error) != SQLITE_OK) {
+        std::string message = error ? error : "unknown error";
+        sqlite3_free(error);
+        fail("%s: cannot create the schema: %s", path, message);
+    }
+}
+
+StateDatabase::~StateDatabase() {
+    sqlite3_close(m_db);
+}
+
+std::vector<StateDatabase::Row> StateDatabase::query(const std::string& sql,
+                                                     const std::vector<Value>& parameters) {
+    std::lock_guard lock(m_mutex);
+    Statement statement;
+    if (sqlite3_prepare_v2(m_db, sql.c_str(), -1, &statement.handle, nullptr) != SQLITE_OK)
+        fail("SQL error in \"%s\": %s", sql, sqlite3_errmsg(m_db));
+    for (size_t i = 0; i < parameters.size(); ++i) {
+        const int index = static_cast<int>(i) + 1;
+        const Value& value = parameters[i];
+        int rc = SQLITE_OK;
+        if (std::holds_alternative<std::nullptr_t>(value))
+            rc = sqlite3_bind_null(statement.handle, index);
+        else if (auto* integer = std::get_if<int64_t>(&value))
+            rc = sqlite3_bind_int64(statement.handle, index, *integer);
+        else if (auto* real = std::get_if<double>(&value))
+            rc = sqlite3_bind_double(statement.handle, index, *real);
+        else {
+            const std::string& bytes = std::get<std::string>(value);
+            rc = sqlite3_bind_blob(statement.handle, index, bytes.data(),
+                                   static_cast<int>(bytes.size()), SQLITE_TRANSIENT);
+        }
+        if (rc != SQLITE_OK) fail("SQL bind error in \"%s\": %s", sql, sqlite3_errmsg(m_db));
+    }
+    std::vector<Row> rows;
+    for (;;) {
+        int rc = sqlite3_step(statement.handle);
+        if (rc == SQLITE_DONE) break;
+        if (rc != SQLITE_ROW) fail("SQL error in \"%s\": %s", sql, sqlite3_errmsg(m_db));
+        Row row;
+        for (int c = 0; c < sqlite3_column_count(statement.handle); ++c) {
+            switch (sqlite3_column_type(statement.handle, c)) {
+                case SQLITE_NULL:
+                    row.emplace_back(nullptr);
+                    break;
+                case SQLITE_INTEGER:
+                    row.emplace_back(int64_t(sqlite3_column_int64(statement.handle, c)));
+                    break;
+                case SQLITE_FLOAT:
+                    row.emplace_back(sqlite3_column_double(statement.handle, c));
+                    break;
+                default: {
+                    const char* data =
+                        static_cast<const char*>(sqlite3_column_blob(statement.handle, c));
+                    row.emplace_back(
+                        std::string(data ? data : "", sqlite3_column_bytes(statement.handle, c)));
+                }
+            }
+        }
+        rows.push_back(std::move(row));
+    }
+    return rows;
+}
+
+void StateDatabase::execute(const std::string& sql, const std::vector<Value>& parameters) {
+    query(sql, parameters);
+}
+
+int64_t StateDatabase::lastInsertId() {
+    std::lock_guard lock(m_mutex);
+    return sqlite3_last_insert_rowid(m_db);
+}
+
+int64_t StateDatabase::integer(const Value& value) {
+    if (auto* integer = std::get_if<int64_t>(&value)) return *integer;
+    if (auto* real = std::get_if<double>(&value)) return static_cast<int64_t>(*real);
+    return 0;
+}
+
+std::string StateDatabase::text(const Value& value) {
+    if (auto* bytes = std::get_if<std::string>(&value)) return *bytes;
+    if (auto* integer = std::get_if<int64_t>(&value)) return std::to_string(*integer);
+    return "";
+}
+
+}  // namespace alphorn::coordinator

@@ -1,0 +1,42 @@
+// The coordinator's durable state in SQLite: jobs, units (attempts and errors), blobs and
+// workers. Film sums are not here but in per-job checkpoint files (see checkpoint.h); the
+// database says which jobs exist and how they stand, the checkpoint which units are merged.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <variant>
+#include <vector>
+
+struct sqlite3;
+
+namespace alphorn::coordinator {
+
+class StateDatabase {
+  public:
+    using Value = std::variant<std::nullptr_t, int64_t, double, std::string>;
+    using Row = std::vector<Value>;
+
+    // Opens (creating if needed) the database in WAL mode and creates the schema.
+    explicit StateDatabase(const std::string& path);
+    ~StateDatabase();
+    StateDatabase(const StateDatabase&) = delete;
+    StateDatabase& operator=(const StateDatabase&) = delete;
+
+    // Runs one statement with bound parameters; throws Error with SQLite's message.
+    void execute(const std::string& sql, const std::vector<Value>& parameters = {});
+    // Runs a query and returns all rows.
+    std::vector<Row> query(const std::string& sql, const std::vector<Value>& parameters = {});
+    int64_t lastInsertId();
+
+    static int64_t integer(const Value& value);
+    static std::string text(const Value& value);
+
+  private:
+    sqlite3* m_db = nullptr;
+    std::mutex m_mutex;  // SQLite connections are not shared between threads without it
+};
+
+}  // namespace alphorn::coordinator

@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# 6b: kill -9 of one worker mid-job. Its lease expires, the unit is rendered again by the other
+# worker, and the image is byte-identical to `alphorn render`; no unit is merged twice.
+source "$(dirname "$0")/farm_lib.sh"
+
+start_coordinator 127.0.0.1:0 --lease-seconds 1
+export ALPHORN_TEST_UNIT_DELAY_MS=120  # test hook: each unit takes 120 ms longer
+start_worker a
+victim=$WORKER_PID
+start_worker b
+survivor=$WORKER_PID
+unset ALPHORN_TEST_UNIT_DELAY_MS
+
+render_local "$SCENES/farm_normals.xml" "$WORK/local.exr" --seed 3 --passes 8
+job=$("$ALPHORN" submit "$SCENES/farm_normals.xml" --seed 3 --passes 8 --tile 32 2>/dev/null)
+units_done() { (($(job_field "$job" units_done) >= 8)); }
+wait_until 30 units_done
+kill -9 "$victim"
+pass "killed worker a (pid $victim) with $(job_field "$job" units_done) of $(job_field "$job" units_total) units merged"
+
+"$ALPHORN" watch "$job" >/dev/null 2>&1 || fail "the job did not finish after a worker died"
+"$ALPHORN" fetch "$job" -o "$WORK/farm.exr" 2>/dev/null || fail "fetch failed"
+cmp "$WORK/local.exr" "$WORK/farm.exr" || fail "the EXR differs after a worker was killed"
+pass "EXR byte-identical to alphorn render after kill -9 of a worker"
+[[ $(job_field "$job" units_merged_this_run) == $(job_field "$job" units_total) ]] ||
+    fail "units merged ($(job_field "$job" units_merged_this_run)) != units total"
+(($(job_field "$job" attempts_failed) >= 1)) || fail "the killed worker's lease should have expired (attempts_failed)"
+grep -q "event=unit.failed.*lease expired" "$WORK/coordinator.log" || fail "no lease-expiry log line"
+pass "the dead worker's unit was requeued after its lease expired; every unit merged exactly once"
+
+# SIGTERM drains: the worker finishes and delivers the unit it holds, takes no more, exits 0.
+job=$("$ALPHORN" submit "$SCENES/farm_normals.xml" --seed 3 --passes 8 --tile 32 2>/dev/null)
+leased() { (($(job_field "$job" units_leased) >= 1)); }
+wait_until 30 leased
+kill -TERM "$survivor"
+wait "$survivor" || fail "the worker did not exit 0 after SIGTERM"
+grep -q "drained; exiting" "$WORK/worker-b.log" || fail "the worker did not drain"
+done_at_exit=$(job_field "$job" units_done)
+((done_at_exit >= 1)) || fail "the draining worker did not deliver the unit it held"
+[[ $(job_field "$job" units_leased) == 0 ]] || fail "the drained worker still holds a lease"
+pass "SIGTERM: worker delivered its unit ($done_at_exit merged), exited 0"
+start_worker c
+"$ALPHORN" watch "$job" >/dev/null 2>&1 || fail "the job did not finish with a fresh worker"
+"$ALPHORN" fetch "$job" -o "$WORK/farm2.exr" 2>/dev/null || fail "fetch failed"
+cmp "$WORK/local.exr" "$WORK/farm2.exr" || fail "the EXR differs after a drained worker"
+pass "a fresh worker finished the job; EXR byte-identical"
+echo "PASS"

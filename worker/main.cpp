@@ -1,0 +1,71 @@
+// alphorn-worker: renders units leased from an alphorn-coordinator. See docs/operations.md.
+#include "common/farm/rpc.h"
+#include "worker/worker.h"
+
+#include <tbb/global_control.h>
+#include <CLI/CLI.hpp>
+
+#include <csignal>
+#include <iostream>
+
+using namespace alphorn;
+
+int main(int argc, char** argv) {
+    CLI::App app{"alphorn-worker: renders units for an alphorn-coordinator."};
+    app.set_version_flag("--version", std::string("alphorn-worker ") + ALPHORN_VERSION);
+    worker::WorkerOptions options;
+    std::string tokenFile;
+    double cacheGiB = 4.0;
+    app.add_option("--coordinator", options.coordinator, "Coordinator address (host:port)")
+        ->required();
+    app.add_option("--token-file", tokenFile, "File holding the worker bearer token")->required();
+    app.add_option("--cache-dir", options.cacheDirectory,
+                   "Directory for the blob cache and job scenes")
+        ->required();
+    app.add_option("--threads", options.threads, "Render threads (default: all cores)")
+        ->check(CLI::Range(0, 1024));
+    app.add_option("--tls-ca", options.tlsCaPath,
+                   "PEM CA certificate: connect with TLS, verifying the coordinator");
+    app.add_option("--cache-gib", cacheGiB, "Blob cache budget in GiB")
+        ->check(CLI::Range(0.0, 1e6));
+    app.add_option("--name", options.name, "Name shown by `alphorn workers` (default: host:pid)");
+    app.add_option("--drain-seconds", options.drainSeconds,
+                   "On SIGTERM, how long to keep trying to deliver");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    }
+    options.cacheBytes = static_cast<uint64_t>(cacheGiB * double(uint64_t(1) << 30));
+
+    sigset_t signals;
+    sigemptyset(&signals);
+    sigaddset(&signals, SIGTERM);
+    sigaddset(&signals, SIGINT);
+    pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+    try {
+        options.token = farm::readTokenFile(tokenFile);
+        std::unique_ptr<tbb::global_control> threadLimit;
+        if (options.threads > 0)
+            threadLimit = std::make_unique<tbb::global_control>(
+                tbb::global_control::max_allowed_parallelism, options.threads);
+        worker::Worker worker(options);
+        std::thread signalThread([&] {
+            for (;;) {
+                int signal = 0;
+                sigwait(&signals, &signal);
+                std::cerr << "alphorn-worker: signal " << signal << ": draining\n";
+                worker.requestStop();
+            }
+        });
+        signalThread.detach();
+        const int code = worker.run();
+        std::cerr.flush();
+        // Leave without unwinding the detached signal thread.
+        std::_Exit(code);
+    } catch (const std::exception& e) {
+        std::cerr << "alphorn-worker: error: " << e.what() << "\n";
+        return 1;
+    }
+}

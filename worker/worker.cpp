@@ -1,0 +1,400 @@
+#include "worker/worker.h"
+
+#include "common/core/error.h"
+#include "common/farm/bundle.h"
+#include "common/farm/convert.h"
+#include "common/farm/film_codec.h"
+#include "common/farm/job_scene.h"
+#include "common/farm/rpc.h"
+#include "common/farm/sha256.h"
+#include "common/scene/scene.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <random>
+
+namespace alphorn::worker {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+namespace {
+
+void log(const std::string& message) {
+    std::cerr << "alphorn-worker[" << ::getpid() << "]: " << message << std::endl;
+}
+
+bool transient(const grpc::Status& status) {
+    switch (status.error_code()) {
+        case grpc::StatusCode::UNAVAILABLE:
+        case grpc::StatusCode::DEADLINE_EXCEEDED:
+        case grpc::StatusCode::CANCELLED:
+        case grpc::StatusCode::ABORTED:
+            return true;
+        default:
+            return false;
+    }
+}
+
+// Test hook (documented in docs/operations.md): ALPHORN_TEST_CRASH_UNIT="NAME:INDEX" makes the
+// worker abort, like a crash in the renderer, whenever it starts unit INDEX of a job named NAME.
+// The integration tests use it to create a poison unit; nothing else sets it.
+void crashIfTestHookMatches(const v1::AcquireWorkResponse& lease) {
+    const char* hook = std::getenv("ALPHORN_TEST_CRASH_UNIT");
+    if (!hook) return;
+    const std::string spec = hook;
+    const size_t colon = spec.rfind(':');
+    if (colon == std::string::npos) return;
+    if (lease.job().settings().name() == spec.substr(0, colon) &&
+        std::to_string(lease.unit().unit_index()) == spec.substr(colon + 1)) {
+        log("ALPHORN_TEST_CRASH_UNIT matches unit " + spec + ": aborting (test hook)");
+        std::abort();
+    }
+}
+
+// Test hook (documented in docs/operations.md): ALPHORN_TEST_UNIT_DELAY_MS=N makes every unit
+// take N ms longer, so integration tests can kill processes mid-job without heavy scenes.
+void delayIfTestHookSet() {
+    if (const char* delay = std::getenv("ALPHORN_TEST_UNIT_DELAY_MS"))
+        std::this_thread::sleep_for(std::chrono::milliseconds(std::atoi(delay)));
+}
+
+}  // namespace
+
+Worker::Worker(WorkerOptions options)
+    : m_options(std::move(options)),
+      m_channel(farm::makeChannel(m_options.coordinator, m_options.tlsCaPath)),
+      m_stub(v1::WorkerService::NewStub(m_channel)),
+      m_cache((fs::path(m_options.cacheDirectory) / "blobs").string(), m_options.cacheBytes) {
+    if (m_options.name.empty()) {
+        char host[256] = {};
+        ::gethostname(host, sizeof host - 1);
+        m_options.name = std::string(host) + ":" + std::to_string(::getpid());
+    }
+}
+
+Worker::~Worker() {
+    {
+        std::lock_guard lock(m_leaseMutex);
+        m_finished = true;
+    }
+    m_leaseWake.notify_all();
+    if (m_heartbeat.joinable()) m_heartbeat.join();
+}
+
+std::unique_ptr<grpc::ClientContext> Worker::context(std::chrono::milliseconds timeout) const {
+    return farm::makeContext(m_options.token, timeout);
+}
+
+void Worker::requestStop() {
+    const int requests = ++m_stopRequests;
+    if (requests >= 2) m_cancelRender = true;  // abandon the unit; it is handed back
+    {
+        // Do not wait out the long poll; a unit leased in this very moment expires and is
+        // requeued by the coordinator.
+        std::lock_guard lock(m_leaseMutex);
+        if (m_acquireContext) m_acquireContext->TryCancel();
+    }
+    m_leaseWake.notify_all();
+}
+
+void Worker::sleepBackoff(int& attempt) {
+    // Exponential backoff with jitter: 100 ms doubling to 5 s, so a restarted coordinator is not
+    // stampeded by every worker at once.
+    static thread_local std::mt19937 random(std::random_device{}());
+    const double base = std::min(5000.0, 100.0 * std::pow(2.0, attempt));
+    const double jittered = base * std::uniform_real_distribution<double>(0.5, 1.0)(random);
+    ++attempt;
+    std::unique_lock lock(m_leaseMutex);
+    m_leaseWake.wait_for(lock, std::chrono::milliseconds(static_cast<int>(jittered)),
+                         [&] { return m_stopRequests >= 2; });
+}
+
+void Worker::registerWithCoordinator() {
+    int attempt = 0;
+    for (;;) {
+        v1::RegisterRequest request;
+        request.set_name(m_options.name);
+        request.set_cores(m_options.threads > 0 ? m_options.threads
+                                                : std::thread::hardware_concurrency());
+        request.set_memory_bytes(uint64_t(::sysconf(_SC_PHYS_PAGES)) *
+                                 uint64_t(::sysconf(_SC_PAGE_SIZE)));
+        request.set_version(ALPHORN_VERSION);
+        v1::RegisterResponse response;
+        auto ctx = context(5s);
+        grpc::Status status = m_stub->Register(ctx.get(), request, &response);
+        if (status.ok()) {
+            m_workerId = response.worker_id();
+            m_heartbeatSeconds = std::max(0.05, response.heartbeat_interval_seconds());
+            m_mustRegister = false;
+            log("registered as worker " + std::to_string(response.worker_id()) + " with " +
+                m_options.coordinator);
+            return;
+        }
+        if (!transient(status))
+            fail("the coordinator refused registration: %s", status.error_message());
+        if (m_stopRequests > 0) fail("stopping before the coordinator could be reached");
+        if (attempt == 0)
+            log("coordinator unavailable (" + status.error_message() + "); retrying with backoff");
+        sleepBackoff(attempt);
+    }
+}
+
+void Worker::heartbeatLoop() {
+    std::unique_lock lock(m_leaseMutex);
+    while (!m_finished) {
+        m_leaseWake.wait_for(lock, std::chrono::duration<double>(m_heartbeatSeconds));
+        if (m_finished) break;
+        if (m_mustRegister) continue;
+        v1::HeartbeatRequest request;
+        request.set_worker_id(m_workerId);
+        for (const auto& [lease, unit] : m_activeLeases) {
+            request.add_lease_ids(lease);
+            *request.add_held_units() = unit;
+        }
+        lock.unlock();
+        v1::HeartbeatResponse response;
+        auto ctx = context(
+            std::chrono::milliseconds(static_cast<int>(1000 * std::max(1.0, m_heartbeatSeconds))));
+        grpc::Status status = m_stub->Heartbeat(ctx.get(), request, &response);
+        lock.lock();
+        if (!status.ok()) continue;  // the coordinator is away: keep working, keep the result
+        if (response.unknown_worker()) m_mustRegister = true;
+        for (uint64_t lease : response.drop_lease_ids()) {
+            // Fenced: our lease expired and the unit went to someone else, or it is done.
+            if (!m_activeLeases.count(lease)) continue;
+            m_fencedLeases.insert(lease);
+            if (lease == m_renderingLease) m_cancelRender = true;
+        }
+    }
+}
+
+Worker::JobContext& Worker::prepareJob(const v1::JobDescription& job) {
+    if (m_job && m_job->jobId == job.job_id()) return *m_job;
+    // One job's scene at a time: the previous one is released, so memory stays flat.
+    m_job.reset();
+    const fs::path jobsDirectory = fs::path(m_options.cacheDirectory) / "jobs";
+    std::error_code ignored;
+    fs::remove_all(jobsDirectory, ignored);
+    auto context = std::make_unique<JobContext>();
+    context->jobId = job.job_id();
+    context->seed = job.settings().seed();
+    const farm::Bundle bundle = farm::fromProto(job.bundle());
+    for (const auto& file : bundle.files) context->blobs.insert(file.sha256);
+    const std::string directory = (jobsDirectory / std::to_string(job.job_id())).string();
+    const std::string scenePath =
+        farm::materializeBundle(bundle, directory, [&](const std::string& sha) {
+            return m_cache.get(sha, [&](const std::string& hash, const std::string& temporary) {
+                int attempt = 0;
+                for (;;) {
+                    std::ofstream file(temporary, std::ios::binary | std::ios::trunc);
+                    v1::GetBlobRequest request;
+                    request.set_sha256(hash);
+                    auto ctx = this->context(600s);
+                    auto reader = m_stub->GetBlob(ctx.get(), request);
+                    v1::GetBlobChunk chunk;
+                    while (reader->Read(&chunk))
+                        file.write(chunk.data().data(), std::streamsize(chunk.data().size()));
+                    grpc::Status status = reader->Finish();
+                    if (status.ok()) return;
+                    if (!transient(status) || m_stopRequests >= 2)
+                        fail("cannot fetch blob %s: %s", hash, status.error_message());
+                    sleepBackoff(attempt);
+                }
+            });
+        });
+    m_cache.trim(context->blobs);
+    context->scene = farm::loadJobScene(scenePath, job.settings().integrator_override());
+    log("loaded job " + std::to_string(job.job_id()) + ": " + context->scene->toString());
+    m_job = std::move(context);
+    return *m_job;
+}
+
+const std::vector<std::shared_ptr<const PassData>>& Worker::passDataFor(JobContext& context,
+                                                                        uint32_t begin,
+                                                                        uint32_t end) {
+    const auto key = std::make_pair(begin, end);
+    auto it = context.passes.find(key);
+    if (it != context.passes.end()) return it->second;
+    // Units of the same passes usually follow each other (all tiles of a chunk come first);
+    // keep a few ranges so photon maps are built once per range, but never grow without bound.
+    while (context.passes.size() >= 4) context.passes.erase(context.passes.begin());
+    return context.passes[key] = preparePasses(*context.scene, context.seed, begin, end);
+}
+
+std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse& lease) {
+    crashIfTestHookMatches(lease);
+    delayIfTestHookSet();
+    Result result;
+    v1::ResultChunk& header = result.header;
+    header.set_worker_id(m_workerId);
+    header.set_lease_id(lease.lease_id());
+    header.set_job_id(lease.unit().job_id());
+    header.set_unit_index(lease.unit().unit_index());
+    try {
+        JobContext& job = prepareJob(lease.job());
+        const RenderUnit unit = farm::fromProto(lease.unit());
+        const auto& passData = passDataFor(job, unit.passBegin, unit.passEnd);
+        FilmBlock block = makeUnitBlock(*job.scene, unit.tile);
+        const auto start = std::chrono::steady_clock::now();
+        const bool complete =
+            renderUnit(*job.scene, job.seed, unit, passData, block, nullptr, &m_cancelRender);
+        if (!complete) {
+            std::lock_guard lock(m_leaseMutex);
+            if (m_fencedLeases.count(lease.lease_id())) {
+                log("dropped unit " + std::to_string(unit.passBegin) + ".. of job " +
+                    std::to_string(job.jobId) + ": the coordinator fenced its lease");
+                return std::nullopt;
+            }
+            header.set_handed_back(true);  // stopping: give the unit back unrendered
+            return result;
+        }
+        header.set_block_x0(block.x0());
+        header.set_block_y0(block.y0());
+        header.set_block_width(block.width());
+        header.set_block_height(block.height());
+        header.set_invalid_samples(block.invalidSamples);
+        result.compressed = farm::compressFilm(block);
+        header.set_compressed_size(result.compressed.size());
+        header.set_compressed_sha256(farm::sha256Hex(result.compressed));
+        const double seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        log("rendered job " + std::to_string(job.jobId) + " unit " +
+            std::to_string(lease.unit().unit_index()) + " in " + std::to_string(seconds) + " s");
+    } catch (const std::exception& e) {
+        log(std::string("unit failed: ") + e.what());
+        header.set_error(e.what());
+    }
+    return result;
+}
+
+bool Worker::deliver(Result& result) {
+    int attempt = 0;
+    const auto giveUpAt = std::chrono::steady_clock::now() +
+                          std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                              std::chrono::duration<double>(m_options.drainSeconds));
+    for (;;) {
+        {
+            std::lock_guard lock(m_leaseMutex);
+            if (m_fencedLeases.count(result.header.lease_id()))
+                return true;  // nobody wants it any more
+        }
+        if (m_mustRegister) {
+            try {
+                registerWithCoordinator();
+            } catch (const Error& e) {
+                log(e.what());
+                return false;
+            }
+            result.header.set_worker_id(m_workerId);
+        }
+        auto ctx = context(120s);
+        v1::ReportResultResponse response;
+        auto writer = m_stub->ReportResult(ctx.get(), &response);
+        size_t offset = 0;
+        bool first = true;
+        bool writeFailed = false;
+        do {
+            v1::ResultChunk chunk;
+            if (first) chunk = result.header;
+            first = false;
+            const size_t n = std::min(farm::kChunkBytes, result.compressed.size() - offset);
+            chunk.set_data(result.compressed.substr(offset, n));
+            offset += n;
+            if (!writer->Write(chunk)) {
+                writeFailed = true;
+                break;
+            }
+        } while (offset < result.compressed.size());
+        if (!writeFailed) writer->WritesDone();
+        grpc::Status status = writer->Finish();
+        if (status.ok()) {
+            if (response.disposition() == v1::RESULT_DISCARDED)
+                log("the coordinator discarded unit " + std::to_string(result.header.unit_index()) +
+                    " of job " + std::to_string(result.header.job_id()) +
+                    " (merged already or reassigned)");
+            return true;
+        }
+        if (status.error_code() == grpc::StatusCode::NOT_FOUND &&
+            status.error_message().find("unknown worker") != std::string::npos) {
+            m_mustRegister = true;
+            continue;
+        }
+        if (!transient(status)) {
+            log("the coordinator refused a result: " + status.error_message());
+            return true;
+        }
+        if (m_stopRequests > 0 && std::chrono::steady_clock::now() > giveUpAt) return false;
+        if (attempt == 0)
+            log("cannot deliver the result (" + status.error_message() +
+                "); keeping it and retrying");
+        sleepBackoff(attempt);
+    }
+}
+
+int Worker::run() {
+    registerWithCoordinator();
+    m_heartbeat = std::thread([this] { heartbeatLoop(); });
+    int attempt = 0;
+    while (m_stopRequests == 0) {
+        if (m_mustRegister) {
+            registerWithCoordinator();
+            continue;
+        }
+        v1::AcquireWorkRequest request;
+        request.set_worker_id(m_workerId);
+        v1::AcquireWorkResponse lease;
+        auto ctx = context(10s);
+        {
+            std::lock_guard lock(m_leaseMutex);
+            if (m_stopRequests > 0) break;
+            m_acquireContext = ctx.get();
+        }
+        grpc::Status status = m_stub->AcquireWork(ctx.get(), request, &lease);
+        {
+            std::lock_guard lock(m_leaseMutex);
+            m_acquireContext = nullptr;
+        }
+        if (m_stopRequests > 0 && status.error_code() == grpc::StatusCode::CANCELLED) break;
+        if (!status.ok()) {
+            if (status.error_code() == grpc::StatusCode::NOT_FOUND) {
+                m_mustRegister = true;
+                continue;
+            }
+            if (!transient(status))
+                fail("the coordinator refused AcquireWork: %s", status.error_message());
+            if (attempt == 0)
+                log("coordinator unavailable (" + status.error_message() +
+                    "); retrying with backoff");
+            sleepBackoff(attempt);
+            continue;
+        }
+        attempt = 0;
+        if (!lease.has_work()) continue;
+        {
+            std::lock_guard lock(m_leaseMutex);
+            v1::HeldUnit held;
+            held.set_job_id(lease.unit().job_id());
+            held.set_unit_index(lease.unit().unit_index());
+            m_activeLeases[lease.lease_id()] = held;
+            m_renderingLease = lease.lease_id();
+            m_cancelRender = m_stopRequests >= 2;
+        }
+        std::optional<Result> result = renderLease(lease);
+        {
+            std::lock_guard lock(m_leaseMutex);
+            m_renderingLease = 0;
+        }
+        if (result) deliver(*result);
+        std::lock_guard lock(m_leaseMutex);
+        m_activeLeases.erase(lease.lease_id());
+        m_fencedLeases.erase(lease.lease_id());
+    }
+    log("drained; exiting");
+    return 0;
+}
+
+}  // namespace alphorn::worker

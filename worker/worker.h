@@ -1,0 +1,96 @@
+// The worker's life: register, lease a unit, make sure its job's scene is loaded, render the
+// unit with renderUnit() on all cores while a second thread heartbeats, deliver the result in
+// chunks (retrying through coordinator outages), repeat. SIGTERM drains: no new work, the
+// current unit is finished and delivered (a second SIGTERM hands it back), then exit 0.
+#pragma once
+
+#include "alphorn/v1/worker_service.grpc.pb.h"
+#include "common/render/unit.h"
+#include "worker/blob_cache.h"
+
+#include <atomic>
+#include <condition_variable>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+namespace alphorn {
+class Scene;
+}
+
+namespace alphorn::worker {
+
+struct WorkerOptions {
+    std::string coordinator;
+    std::string token;
+    std::string cacheDirectory;
+    std::string tlsCaPath;
+    std::string name;
+    int threads = 0;  // 0: all cores
+    uint64_t cacheBytes = uint64_t(4) << 30;
+    double drainSeconds = 60.0;  // how long a draining worker keeps trying to deliver
+};
+
+class Worker {
+  public:
+    explicit Worker(WorkerOptions options);
+    ~Worker();
+
+    // Runs until drained; returns the process exit code.
+    int run();
+    // First call: stop taking work and finish the current unit. Second: abandon and hand back.
+    void requestStop();
+
+  private:
+    struct JobContext {
+        uint64_t jobId = 0;
+        std::shared_ptr<Scene> scene;
+        uint64_t seed = 0;
+        std::set<std::string> blobs;
+        // Pass data of recently rendered pass ranges, built once per range, not per unit.
+        std::map<std::pair<uint32_t, uint32_t>, std::vector<std::shared_ptr<const PassData>>>
+            passes;
+    };
+    struct Result {
+        v1::ResultChunk header;
+        std::string compressed;
+    };
+
+    void registerWithCoordinator();
+    void heartbeatLoop();
+    JobContext& prepareJob(const v1::JobDescription& job);
+    const std::vector<std::shared_ptr<const PassData>>& passDataFor(JobContext& context,
+                                                                    uint32_t begin, uint32_t end);
+    std::optional<Result> renderLease(const v1::AcquireWorkResponse& lease);
+    // Delivers until the coordinator answers (merged, discarded or refused) or the lease is
+    // fenced; keeps the result through outages. Returns false when it had to give up (draining).
+    bool deliver(Result& result);
+    void sleepBackoff(int& attempt);
+    std::unique_ptr<grpc::ClientContext> context(std::chrono::milliseconds timeout) const;
+
+    WorkerOptions m_options;
+    std::shared_ptr<grpc::Channel> m_channel;
+    std::unique_ptr<v1::WorkerService::Stub> m_stub;
+    BlobCache m_cache;
+    std::unique_ptr<JobContext> m_job;
+
+    std::atomic<uint64_t> m_workerId{0};
+    std::atomic<int> m_stopRequests{0};
+    std::atomic<bool> m_mustRegister{true};
+    double m_heartbeatSeconds = 2.0;
+
+    // Leases being worked on (rendering or delivering), shared with the heartbeat thread.
+    std::mutex m_leaseMutex;
+    std::condition_variable m_leaseWake;
+    std::map<uint64_t, v1::HeldUnit> m_activeLeases;  // lease id -> unit
+    std::set<uint64_t> m_fencedLeases;  // the coordinator told us to drop these
+    std::atomic<bool> m_cancelRender{false};
+    uint64_t m_renderingLease = 0;
+    grpc::ClientContext* m_acquireContext = nullptr;  // cancelled by requestStop()
+    bool m_finished = false;
+    std::thread m_heartbeat;
+};
+
+}  // namespace alphorn::worker

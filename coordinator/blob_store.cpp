@@ -1,6 +1,7 @@
 #include "coordinator/blob_store.h"
 
 #include "common/core/error.h"
+#include "common/farm/files.h"
 
 #include <unistd.h>
 
@@ -75,7 +76,8 @@ bool BlobStore::Upload::commit() {
     const std::string target = m_store.pathOf(m_claimed);
     if (fs::exists(target)) return false;  // fs::remove in the destructor drops the duplicate
     fs::create_directories(fs::path(target).parent_path());
-    fs::rename(m_temporaryPath, target);
+    // The database records the blob as stored once this returns, so its bytes must be on disk.
+    farm::publishFileAtomically(m_temporaryPath, target);
     m_committed = true;
     return true;
 }

@@ -59,4 +59,18 @@ void writeFileAtomically(const std::string& path, std::string_view contents) {
     fsyncDirectory(target.parent_path());
 }
 
+void publishFileAtomically(const std::string& temporary, const std::string& path) {
+    int fd = ::open(temporary.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) fail("%s: cannot open: %s", temporary, std::strerror(errno));
+    if (::fsync(fd) != 0) {
+        int error = errno;
+        ::close(fd);
+        fail("%s: fsync failed: %s", temporary, std::strerror(error));
+    }
+    ::close(fd);
+    if (::rename(temporary.c_str(), path.c_str()) != 0)
+        fail("%s: rename failed: %s", path, std::strerror(errno));
+    fsyncDirectory(std::filesystem::path(path).parent_path());
+}
+
 }  // namespace alphorn::farm

@@ -110,7 +110,7 @@ private:
         }
     }
 
-    std::string attr(const pugi::xml_node& node, const char* name) {
+    std::string attr(const pugi::xml_node& node, const char* name) const {
         return node.attribute(name).value();
     }
 
@@ -275,6 +275,7 @@ private:
             }
             if (!m.allFinite() || std::abs(m.determinant()) == 0.0f)
                 failAt(node, "the transform \"%s\" is singular or not finite", attr(node, "name"));
+            failIfDuplicate(node, props);
             props.setTransform(attr(node, "name"), Transform(m));
             return;
         }
@@ -282,6 +283,7 @@ private:
             failAt(node, "<%s> must be inside a <transform>", node.name());
         checkAttributes(node, {"name", "value"});
         std::string name = attr(node, "name"), value = attr(node, "value");
+        failIfDuplicate(node, props);
         try {
             switch (tag) {
                 case Tag::Boolean: props.setBoolean(name, toBool(node, value)); break;
@@ -299,6 +301,12 @@ private:
             if (message.rfind(m_path, 0) == 0) throw;
             failAt(node, "%s", message);
         }
+    }
+
+    // A repeated property is reported at the repeat, where the user has to look.
+    void failIfDuplicate(const pugi::xml_node& node, const PropertyList& props) const {
+        const std::string name = attr(node, "name");
+        if (props.has(name)) failAt(node, "property \"%s\" was specified more than once", name);
     }
 
     std::string m_path;

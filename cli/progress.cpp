@@ -19,6 +19,7 @@ ProgressLine::ProgressLine(std::string label, uint64_t total)
       m_start(std::chrono::steady_clock::now()), m_lastPrint(m_start) {}
 
 void ProgressLine::update(uint64_t done, const std::string& extra) {
+    m_done = done;
     auto now = std::chrono::steady_clock::now();
     double elapsed = std::chrono::duration<double>(now - m_start).count();
     double fraction = m_total ? double(done) / double(m_total) : 1.0;
@@ -45,12 +46,13 @@ void ProgressLine::update(uint64_t done, const std::string& extra) {
     m_lastPrint = now;
 }
 
-void ProgressLine::finish(const std::string& extra) {
+void ProgressLine::finish(const std::string& outcome) {
     double elapsed =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
     if (m_tty) std::fprintf(stderr, "\r\033[K");
-    std::fprintf(stderr, "%s: done, %llu in %s %s\n", m_label.c_str(),
-                 (unsigned long long)m_total, formatDuration(elapsed).c_str(), extra.c_str());
+    std::fprintf(stderr, "%s: %s, %llu/%llu passes in %s\n", m_label.c_str(), outcome.c_str(),
+                 (unsigned long long)m_done, (unsigned long long)m_total,
+                 formatDuration(elapsed).c_str());
 }
 
 }  // namespace alphorn::cli

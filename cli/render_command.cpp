@@ -63,7 +63,7 @@ static int runRender(const RenderOptions& options) {
                         absl::StrFormat("%.2f Mrays/s", seconds > 0 ? status.rays / seconds * 1e-6 : 0.0));
     });
     double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    progress.finish("passes");
+    progress.finish();
     if (film.invalidSamples)
         std::cerr << "warning: " << film.invalidSamples
                   << " samples were NaN, infinite or negative and were left out\n";

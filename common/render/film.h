@@ -10,6 +10,8 @@
 
 #include "common/core/color.h"
 
+#include <cmath>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -34,7 +36,11 @@ struct PixelSum {
 };
 
 inline FixedPoint toFixedPoint(double value) {
-    return static_cast<FixedPoint>(std::nearbyint(value * kFixedPointScale));
+    const double scaled = std::nearbyint(value * kFixedPointScale);
+    // Converting a double to a 128-bit integer is a slow libgcc call; every value in range of a
+    // 64-bit integer (all but absurdly bright samples) converts exactly through int64_t instead.
+    if (std::abs(scaled) < 0x1p62) return static_cast<int64_t>(scaled);
+    return static_cast<FixedPoint>(scaled);
 }
 inline double fromFixedPoint(FixedPoint value) {
     return static_cast<double>(value) / kFixedPointScale;

@@ -51,5 +51,18 @@ TEST(FilmBlock, ResolveDividesByWeight) {
     EXPECT_EQ(image.get(1, 0).g(), 1.0f);
 }
 
+// Both conversion paths (through int64 and the full 128-bit one) round to the same integer.
+TEST(FixedPoint, ConversionIsExactOnBothSidesOfThe64BitFastPath) {
+    for (double v : {0.0, 1.0, -2.5, 0.1, 1e-12, 4.0e6, 4.2e6, -4.2e6, 1e9, 3.7e13}) {
+        const FixedPoint fixed = toFixedPoint(v);
+        const long double expected = std::nearbyint(static_cast<long double>(v) * 0x1p40L);
+        EXPECT_EQ(static_cast<long double>(fixed), expected) << v;
+        EXPECT_EQ(fromFixedPoint(fixed), std::nearbyint(v * 0x1p40) / 0x1p40) << v;
+    }
+    // 2^22 * 2^40 = 2^62 is the first value beyond the fast path.
+    EXPECT_EQ(toFixedPoint(0x1p22), FixedPoint(1) << 62);
+    EXPECT_EQ(toFixedPoint(-0x1p22), -(FixedPoint(1) << 62));
+}
+
 }  // namespace
 }  // namespace alphorn

@@ -8,6 +8,8 @@
 
 namespace alphorn {
 
+class Medium;
+
 class Camera : public Object {
 public:
     ObjectKind kind() const override { return ObjectKind::Camera; }
@@ -18,6 +20,8 @@ public:
 
     const Vector2i& outputSize() const { return m_outputSize; }
     const ReconstructionFilter* filter() const { return m_filter.get(); }
+    // The medium the camera sits in (a nested <medium>); nullptr is vacuum.
+    const Medium* medium() const { return m_medium.get(); }
 
     void addChild(const std::shared_ptr<Object>& child, const std::string& name) override;
     // Creates the default gaussian filter when none was given; derived classes call this.
@@ -26,6 +30,7 @@ public:
 protected:
     Vector2i m_outputSize{1280, 720};
     std::shared_ptr<ReconstructionFilter> m_filter;
+    std::shared_ptr<Medium> m_medium;
 };
 
 }  // namespace alphorn

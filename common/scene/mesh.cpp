@@ -3,6 +3,7 @@
 #include "common/bsdf/bsdf.h"
 #include "common/core/warp.h"
 #include "common/emitter/emitter.h"
+#include "common/medium/medium.h"
 
 #include <absl/strings/str_format.h>
 
@@ -33,6 +34,15 @@ void Mesh::addChild(const std::shared_ptr<Object>& child, const std::string& nam
             m_emitter = std::static_pointer_cast<Emitter>(child);
             m_emitter->setMesh(this);
             break;
+        case ObjectKind::Medium: {
+            if (name != "inside" && name != "outside")
+                child->fail("a medium nested in a mesh needs name=\"inside\" or name=\"outside\"");
+            auto& slot = name == "inside" ? m_inside : m_outside;
+            if (slot) child->fail("the mesh has more than one %s medium", name);
+            slot = std::static_pointer_cast<Medium>(child);
+            m_hasMediumInterface = true;
+            break;
+        }
         default: Object::addChild(child, name);
     }
 }
@@ -87,6 +97,14 @@ void Mesh::fillIntersection(uint32_t triangle, float u, float v, Intersection& i
     } else {
         its.shFrame = its.geoFrame;
     }
+}
+
+const Medium* Mesh::mediumTowards(const Intersection& its, const Vector3f& dir,
+                                  const Medium* current) const {
+    if (!m_hasMediumInterface) return current;
+    Vector3f outward = its.geoFrame.n;
+    if (outward.dot(its.shFrame.n) < 0.0f) outward = -outward;
+    return dir.dot(outward) < 0.0f ? m_inside.get() : m_outside.get();
 }
 
 SurfaceSample Mesh::sampleSurface(const Point2f& sample) const {

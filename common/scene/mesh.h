@@ -10,6 +10,7 @@ namespace alphorn {
 
 class BSDF;
 class Emitter;
+class Medium;
 class Mesh;
 
 // A ray-surface hit.
@@ -63,6 +64,20 @@ public:
     const Emitter* emitter() const { return m_emitter.get(); }
     std::shared_ptr<Emitter> emitterShared() const { return m_emitter; }
 
+    // Media on either side (<medium name="inside|outside">). "Inside" is the side opposite the
+    // surface normal (the geometric normal, turned to agree with the interpolated one when the
+    // mesh has normals). A side that is not given is vacuum (nullptr). A mesh that gives neither
+    // is no medium boundary at all: rays keep the medium they were in (pbrt's rule), which is
+    // what an opaque object standing in fog needs.
+    bool hasMediumInterface() const { return m_hasMediumInterface; }
+    const Medium* insideMedium() const { return m_inside.get(); }
+    const Medium* outsideMedium() const { return m_outside.get(); }
+    // The medium a ray is in after leaving the hit `its` along world direction `dir`, given the
+    // medium `current` it arrived in. Reflection and refraction both follow from the side `dir`
+    // points to.
+    const Medium* mediumTowards(const Intersection& its, const Vector3f& dir,
+                                const Medium* current) const;
+
 protected:
     // Called by loaders with the geometry; computes areas and the sampling table.
     void setGeometry(Eigen::Matrix<float, 3, Eigen::Dynamic> positions,
@@ -81,6 +96,8 @@ private:
 
     std::shared_ptr<BSDF> m_bsdf;
     std::shared_ptr<Emitter> m_emitter;
+    std::shared_ptr<Medium> m_inside, m_outside;
+    bool m_hasMediumInterface = false;
 };
 
 }  // namespace alphorn

@@ -1,10 +1,12 @@
 // <test type="chi2test">: Pearson's chi-square test that a BSDF's sample() draws directions
 // with the density its pdf() claims (Nori's ChiSquareTest, same property names and defaults).
+// <phase> children (media phase functions) are tested the same way, over the whole sphere.
 // Directions are binned on a (cos theta, phi) grid and compared with the pdf integrated over
 // each cell. Samples of weight zero are dropped, so the pdf must integrate to the probability
 // that sampling succeeds.
 #include "common/bsdf/bsdf.h"
 #include "common/core/rng.h"
+#include "common/phase/phase.h"
 #include "common/stats/chi_square.h"
 #include "common/stats/sidak.h"
 #include "common/stats/spherical_histogram.h"
@@ -14,6 +16,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <functional>
 #include <mutex>
 #include <ostream>
 
@@ -55,20 +58,57 @@ class ChiSquareTest : public StatisticalTest {
     void addChild(const std::shared_ptr<Object>& child, const std::string& name) override {
         if (child->kind() == ObjectKind::BSDF)
             m_bsdfs.push_back(std::static_pointer_cast<BSDF>(child));
+        else if (child->kind() == ObjectKind::PhaseFunction)
+            m_phases.push_back(std::static_pointer_cast<PhaseFunction>(child));
         else
             Object::addChild(child, name);
     }
 
     void activate() override {
-        if (m_bsdfs.empty()) fail("nothing to test: add <bsdf> children");
+        if (m_bsdfs.empty() && m_phases.empty())
+            fail("nothing to test: add <bsdf> or <phase> children");
     }
 
     Summary run(std::ostream& out) const override {
+        // Each tested object as a sampler of wo and its density, for one incident direction.
+        struct Target {
+            std::string name, source;
+            std::function<Vector3f(const Vector3f&, const Point2f&, bool&)> sample;
+            std::function<double(const Vector3f&, const Vector3f&)> pdf;
+        };
+        std::vector<Target> targets;
+        for (const auto& bsdf : m_bsdfs)
+            targets.push_back(
+                Target{bsdf->toString(), bsdf->source(),
+                       [bsdf](const Vector3f& wi, const Point2f& u, bool& valid) {
+                           BSDFQueryRecord rec(wi);
+                           const Color3f weight = bsdf->sample(rec, u);
+                           valid = !weight.isBlack();  // failed samples are not in the distribution
+                           if (valid && !weight.allFinite()) rec.wo = Vector3f::Constant(NAN);
+                           return rec.wo;
+                       },
+                       [bsdf](const Vector3f& wi, const Vector3f& wo) {
+                           return double(bsdf->pdf(BSDFQueryRecord(wi, wo, Measure::SolidAngle)));
+                       }});
+        for (const auto& phase : m_phases)
+            targets.push_back(Target{phase->toString(), phase->source(),
+                                     [phase](const Vector3f& wi, const Point2f& u, bool& valid) {
+                                         Vector3f wo;
+                                         const float weight = phase->sample(wi, wo, u);
+                                         valid = weight != 0.0f;
+                                         if (valid && !std::isfinite(weight))
+                                             wo = Vector3f::Constant(NAN);
+                                         return wo;
+                                     },
+                                     [phase](const Vector3f& wi, const Vector3f& wo) {
+                                         return double(phase->pdf(wi, wo));
+                                     }});
+
         Summary summary;
-        const int m = m_testCount * static_cast<int>(m_bsdfs.size());
+        const int m = m_testCount * static_cast<int>(targets.size());
         const double alpha = stats::sidakAlpha(m_significanceLevel, m);
         int index = 0;
-        for (const auto& bsdf : m_bsdfs) {
+        for (const Target& target : targets) {
             for (int l = 0; l < m_testCount; ++l, ++index) {
                 // A random direction in the upper hemisphere (Nori: uniform in cos theta).
                 Rng rng(kTestSeed, static_cast<uint64_t>(index), 0, StreamPurpose::Test);
@@ -78,13 +118,9 @@ class ChiSquareTest : public StatisticalTest {
                 const Vector3f wi(std::cos(phi) * sinTheta, std::sin(phi) * sinTheta, cosTheta);
 
                 uint64_t invalid = 0;
-                const std::vector<double> observed = histogram(*bsdf, wi, index, invalid);
+                const std::vector<double> observed = histogram(target.sample, wi, index, invalid);
                 const std::vector<double> expected = stats::expectedFrequencies(
-                    m_grid,
-                    [&](const Vector3f& wo) {
-                        return double(bsdf->pdf(BSDFQueryRecord(wi, wo, Measure::SolidAngle)));
-                    },
-                    m_sampleCount);
+                    m_grid, [&](const Vector3f& wo) { return target.pdf(wi, wo); }, m_sampleCount);
                 stats::Chi2Result result =
                     stats::chi2Test(observed, expected, m_sampleCount, m_minExpFrequency, alpha);
                 if (invalid > 0) {
@@ -97,8 +133,8 @@ class ChiSquareTest : public StatisticalTest {
                 out << absl::StrFormat(
                     "chi2test %d/%d: %s (%s), wi = (%.4f, %.4f, %.4f), %d samples on %dx%d cells\n"
                     "  %s\n",
-                    index + 1, m, bsdf->toString(), bsdf->source(), wi.x(), wi.y(), wi.z(),
-                    m_sampleCount, m_grid.cosThetaResolution, m_grid.phiResolution, result.message);
+                    index + 1, m, target.name, target.source, wi.x(), wi.y(), wi.z(), m_sampleCount,
+                    m_grid.cosThetaResolution, m_grid.phiResolution, result.message);
             }
         }
         out << absl::StrFormat("chi2test %s: passed %d/%d\n", source(), summary.passed,
@@ -113,8 +149,9 @@ class ChiSquareTest : public StatisticalTest {
     }
 
   private:
-    std::vector<double> histogram(const BSDF& bsdf, const Vector3f& wi, int testIndex,
-                                  uint64_t& invalid) const {
+    std::vector<double> histogram(
+        const std::function<Vector3f(const Vector3f&, const Point2f&, bool&)>& sample,
+        const Vector3f& wi, int testIndex, uint64_t& invalid) const {
         std::vector<double> counts(m_grid.cellCount(), 0.0);
         std::mutex mutex;
         const int chunks = static_cast<int>((int64_t{m_sampleCount} + kChunk - 1) / kChunk);
@@ -126,15 +163,15 @@ class ChiSquareTest : public StatisticalTest {
             const int64_t end = std::min<int64_t>(m_sampleCount, (chunk + 1) * kChunk);
             for (int64_t i = chunk * kChunk; i < end; ++i) {
                 const float u = rng.nextFloat();
-                const Point2f sample(u, rng.nextFloat());
-                BSDFQueryRecord rec(wi);
-                const Color3f weight = bsdf.sample(rec, sample);
-                if (weight.isBlack()) continue;  // failed sample: not part of the distribution
-                if (!weight.allFinite() || !rec.wo.allFinite()) {
+                const Point2f point(u, rng.nextFloat());
+                bool valid = false;
+                const Vector3f wo = sample(wi, point, valid);
+                if (!valid) continue;  // failed sample: not part of the distribution
+                if (!wo.allFinite()) {
                     ++localInvalid;
                     continue;
                 }
-                ++local[m_grid.cellOf(rec.wo)];
+                ++local[m_grid.cellOf(wo)];
             }
             std::lock_guard lock(mutex);
             for (size_t c = 0; c < local.size(); ++c) counts[c] += static_cast<double>(local[c]);
@@ -149,6 +186,7 @@ class ChiSquareTest : public StatisticalTest {
     int m_sampleCount;
     int m_testCount;
     std::vector<std::shared_ptr<BSDF>> m_bsdfs;
+    std::vector<std::shared_ptr<PhaseFunction>> m_phases;
 };
 
 ALPHORN_REGISTER(Test, "chi2test", ChiSquareTest);

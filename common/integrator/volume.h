@@ -1,0 +1,261 @@
+// Volumetric path tracing shared by volume_path_mats and volume_path_mis (and usable from photon
+// tracing): walking a ray through media and index-matched (null) boundaries, transmittance for
+// shadow rays, and the path loop itself. Both integrators are one algorithm; they differ only in
+// whether lights are also sampled (next-event estimation with MIS), so the loop lives here once
+// and each plugin file only chooses.
+//
+// Medium bookkeeping: the path carries the medium it is in, starting with the camera's. At a
+// surface the medium after the hit is mesh.mediumTowards(hit, new direction, current), which
+// handles entering, leaving, reflecting and refracting alike; meshes without media keep the
+// current one. Null surfaces (bsdf `null`, or a dielectric with equal indices) are crossed
+// without a scattering event, a random number or a counted bounce.
+//
+// Rays that leave every surface behind have no end; media along them end where the ray leaves
+// the box around the scene's meshes and the camera, so that delta tracking in a medium that thins
+// out to nothing cannot wander forever. (A homogeneous fog around an open scene therefore ends
+// at that box too; enclose fog by a mesh for a well-defined extent.)
+#pragma once
+
+#include "common/integrator/direct.h"
+#include "common/medium/medium.h"
+
+namespace alphorn {
+
+// True when `medium` can interact with light (non-null and not vacuum).
+inline bool isParticipating(const Medium* medium) {
+    return medium && !medium->isVacuum();
+}
+
+// The distance along `ray` (unit direction) at which it leaves `box`; 0 when it never is inside.
+inline float exitDistance(const Eigen::AlignedBox3f& box, const Ray3f& ray) {
+    float tNear = 0.0f, tFar = Infinity;
+    for (int axis = 0; axis < 3; ++axis) {
+        const float inv = 1.0f / ray.d[axis];
+        float t0 = (box.min()[axis] - ray.o[axis]) * inv;
+        float t1 = (box.max()[axis] - ray.o[axis]) * inv;
+        if (t0 > t1) std::swap(t0, t1);
+        // NaN (0 * inf on a slab face) compares false and leaves the bounds unchanged.
+        if (t0 > tNear) tNear = t0;
+        if (t1 < tFar) tFar = t1;
+    }
+    return tNear <= tFar ? std::max(tFar, 0.0f) : 0.0f;
+}
+
+// The box that media end at along rays that hit nothing: the scene's meshes, its lights (a
+// spotlight above an open floor is outside the meshes' box) and the camera, 1% larger so that a
+// medium filling a closed mesh is never cut by it. Camera ray origins are added per path
+// (volumePathLi), which also covers thin-lens apertures.
+inline Eigen::AlignedBox3f mediaBounds(const Scene& scene) {
+    Eigen::AlignedBox3f box = scene.bounds();
+    for (const auto& emitter : scene.emitters()) {
+        // An emitted ray starts on the light: its position for point-like lights.
+        Ray3f ray;
+        emitter->samplePhoton(ray, Point2f(0.5f, 0.5f), Point2f(0.5f, 0.5f));
+        if (ray.o.allFinite()) box.extend(ray.o);
+    }
+    Ray3f cameraRay;
+    const Vector2f centre = 0.5f * scene.camera()->outputSize().cast<float>();
+    scene.camera()->sampleRay(cameraRay, centre, Point2f(0.5f, 0.5f));
+    if (cameraRay.o.allFinite()) box.extend(cameraRay.o);
+    if (box.isEmpty()) return box;
+    const Vector3f margin = 0.01f * box.sizes() + Vector3f::Constant(Epsilon);
+    return Eigen::AlignedBox3f(box.min() - margin, box.max() + margin);
+}
+
+// The medium at point `p`, from the first medium boundary a ray from p meets: the medium on the
+// side it arrives from. For lights inside media (photon emission needs the medium a photon
+// starts in) and tests; nullptr (vacuum) when no boundary encloses p. Assumes closed,
+// consistently declared boundaries, like the rest of the bookkeeping.
+inline const Medium* mediumAt(const Scene& scene, const Point3f& p) {
+    // An oblique direction, so that the ray does not run along the faces of axis-aligned boxes.
+    Ray3f ray(p, Vector3f(0.5376f, 0.6132f, 0.5787f).normalized(), 0.0f, Infinity);
+    for (;;) {
+        Intersection its;
+        if (!scene.rayIntersect(ray, its)) return nullptr;
+        if (its.mesh->hasMediumInterface()) return its.mesh->mediumTowards(its, -ray.d, nullptr);
+        ray = Ray3f(its.p, ray.d, Epsilon, Infinity);
+    }
+}
+
+// Transmittance along `ray` (unit direction, over [ray.mint, ray.maxt]) starting in `medium`:
+// the product over the media between null surfaces; zero when any other surface blocks it.
+// Ratio tracking in heterogeneous media draws from `sampler`; homogeneous media draw nothing.
+inline Color3f transmittanceAlong(const Scene& scene, Sampler& sampler, Ray3f ray,
+                                  const Medium* medium, const Eigen::AlignedBox3f& bounds) {
+    Color3f result(1.0f);
+    for (;;) {
+        Intersection its;
+        const bool hit = scene.rayIntersect(ray, its);
+        if (isParticipating(medium)) {
+            const float end = hit ? its.t : std::min(ray.maxt, exitDistance(bounds, ray));
+            result *= medium->transmittance(Ray3f(ray.o, ray.d), end, sampler);
+            if (result.isBlack()) return result;
+        }
+        if (!hit) return result;
+        if (!its.mesh->bsdf()->isNull()) return Color3f(0.0f);
+        medium = its.mesh->mediumTowards(its, ray.d, medium);
+        ray = Ray3f(its.p, ray.d, Epsilon, ray.maxt - its.t);
+    }
+}
+
+// One light sample for a scattering vertex at `p` in `medium` (phase function) or at a surface
+// (BSDF, `its` non-null), with transmittance through media. Draws 1D + 2D numbers always, plus
+// whatever ratio tracking needs. With `mis` the result carries the balance heuristic weight
+// against phase/BSDF sampling (delta lights keep weight 1).
+struct ScatteringVertex {
+    Point3f p;
+    const Intersection* its = nullptr;  // surface vertices only
+    const BSDF* bsdf = nullptr;         // surface vertices only
+    Vector3f wi;                        // world direction back along the path
+    const Medium* medium = nullptr;     // the medium the vertex lies in (media vertices)
+};
+
+inline Color3f sampleLightThroughMedia(const Scene& scene, Sampler& sampler,
+                                       const ScatteringVertex& v, const Eigen::AlignedBox3f& bounds,
+                                       bool mis) {
+    float selection = sampler.next1D();
+    const Point2f lightSample = sampler.next2D();
+    float selectionPdf = 0.0f;
+    const Emitter* emitter = scene.sampleEmitter(selection, selectionPdf);
+    if (!emitter || !(selectionPdf > 0.0f)) return Color3f(0.0f);
+
+    EmitterQueryRecord lRec(v.p);
+    const Color3f radianceOverPdf = emitter->sample(lRec, lightSample);
+    if (radianceOverPdf.isBlack() || !radianceOverPdf.allFinite()) return Color3f(0.0f);
+
+    Color3f f;
+    float scatterPdf;
+    const Medium* shadowMedium = v.medium;
+    if (v.its) {
+        BSDFQueryRecord bRec = makeBSDFQuery(*v.its, v.its->toLocal(v.wi));
+        bRec.wo = v.its->toLocal(lRec.wi);
+        bRec.measure = Measure::SolidAngle;
+        f = v.bsdf->eval(bRec) * std::abs(Frame::cosTheta(bRec.wo));
+        scatterPdf = v.bsdf->pdf(bRec);
+        shadowMedium = v.its->mesh->mediumTowards(*v.its, lRec.wi, v.medium);
+    } else {
+        f = Color3f(v.medium->phase().eval(v.wi, lRec.wi));
+        scatterPdf = v.medium->phase().pdf(v.wi, lRec.wi);
+    }
+    if (f.isBlack()) return Color3f(0.0f);
+    // The shadow ray is traced last: it is the expensive part and often unnecessary.
+    const Color3f tr = transmittanceAlong(scene, sampler, lRec.shadowRay, shadowMedium, bounds);
+    if (tr.isBlack()) return Color3f(0.0f);
+
+    Color3f result = f * tr * radianceOverPdf / selectionPdf;
+    if (mis && !emitter->isDelta()) result *= balanceHeuristic(lRec.pdf * selectionPdf, scatterPdf);
+    return result;
+}
+
+// The volumetric path tracer. Without `mis` (volume_path_mats) light is found only by
+// phase/BSDF sampling hitting emitters; with it (volume_path_mis) every non-delta scattering
+// vertex also samples a light, and both strategies are weighted by the balance heuristic.
+// Russian roulette from the fourth scattering vertex on, as in path_mats; no depth cap.
+// `mediaBox` is mediaBounds(scene), computed once per scene by the integrator.
+inline Color3f volumePathLi(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
+                            const Eigen::AlignedBox3f& mediaBox, bool mis) {
+    Color3f result(0.0f);
+    // Throughput under spectral MIS for chromatic media (see MediumSample).
+    SpectralThroughput path;
+    Color3f& throughput = path.throughput;
+    float etaScale = 1.0f;
+    // Unit direction: media measure distances in world units.
+    const float length = cameraRay.d.norm();
+    if (!(length > 0.0f)) return result;
+    Ray3f ray(cameraRay.o, cameraRay.d / length, cameraRay.mint * length, cameraRay.maxt * length);
+    const Medium* medium = scene.camera()->medium();
+    Eigen::AlignedBox3f bounds = mediaBox;
+    bounds.extend(cameraRay.o);
+    // Density of the phase/BSDF sample that produced the current ray, for MIS of emitter hits;
+    // negative for the camera ray and after delta bounces (emission then counts fully).
+    float scatterPdf = -1.0f;
+    Point3f lastVertex = ray.o;  // where that sample was taken (null crossings do not move it)
+    for (int depth = 0;;) {
+        Intersection its;
+        const bool hit = scene.rayIntersect(ray, its);
+        if (isParticipating(medium)) {
+            const float end = hit ? its.t : std::min(ray.maxt, exitDistance(bounds, ray));
+            const MediumSample ms =
+                medium->sampleDistance(Ray3f(ray.o, ray.d), end, sampler, path.hero);
+            if (ms.event == MediumSample::Event::Absorbed) break;
+            path.apply(ms);
+            // A purely absorbing medium "scatters" with weight sigmaS = 0: the path ends.
+            if (throughput.isBlack()) break;
+            if (ms.event == MediumSample::Event::Scattered) {
+                if (depth >= 3) {
+                    const float q = std::min(throughput.maxCoeff() * etaScale, 0.99f);
+                    if (sampler.next1D() >= q) break;
+                    throughput /= q;
+                }
+                ++depth;
+                const Vector3f wi = -ray.d;
+                if (mis) {
+                    ScatteringVertex v;
+                    v.p = ms.p;
+                    v.wi = wi;
+                    v.medium = medium;
+                    result += throughput * sampleLightThroughMedia(scene, sampler, v, bounds, true);
+                }
+                Vector3f wo;
+                const float weight = medium->phase().sample(wi, wo, sampler.next2D());
+                if (!(weight > 0.0f)) break;
+                throughput *= weight;
+                scatterPdf = medium->phase().pdf(wi, wo);
+                lastVertex = ms.p;
+                // A scattering point is not on a surface: the next ray may start at 0.
+                ray = Ray3f(ms.p, wo, 0.0f, Infinity);
+                continue;
+            }
+        }
+        if (!hit) break;
+
+        const Vector3f dir = ray.d;
+        const Color3f le = emittedRadiance(lastVertex, dir, its);
+        if (!le.isBlack()) {
+            const float w =
+                !mis || scatterPdf < 0.0f
+                    ? 1.0f
+                    : balanceHeuristic(scatterPdf, emitterSamplingPdf(scene, lastVertex, dir, its));
+            result += throughput * le * w;
+        }
+
+        const BSDF& bsdf = *its.mesh->bsdf();
+        if (bsdf.isNull()) {
+            medium = its.mesh->mediumTowards(its, dir, medium);
+            ray = Ray3f(its.p, dir, Epsilon, ray.maxt - its.t);
+            continue;
+        }
+
+        if (depth >= 3) {
+            const float q = std::min(throughput.maxCoeff() * etaScale, 0.99f);
+            if (sampler.next1D() >= q) break;
+            throughput /= q;
+        }
+        ++depth;
+
+        const Vector3f wiLocal = its.toLocal(-dir);
+        if (mis && bsdf.isDiffuse()) {
+            ScatteringVertex v;
+            v.p = its.p;
+            v.its = &its;
+            v.bsdf = &bsdf;
+            v.wi = -dir;
+            v.medium = medium;
+            result += throughput * sampleLightThroughMedia(scene, sampler, v, bounds, true);
+        }
+
+        BSDFQueryRecord bRec = makeBSDFQuery(its, wiLocal);
+        const Color3f weight = bsdf.sample(bRec, sampler.next2D());
+        if (weight.isBlack() || !weight.allFinite()) break;
+        scatterPdf = bRec.measure == Measure::Discrete ? -1.0f : bsdf.pdf(bRec);
+        lastVertex = its.p;
+        throughput *= weight;
+        etaScale *= bRec.eta * bRec.eta;
+        const Vector3f wo = its.toWorld(bRec.wo).normalized();
+        medium = its.mesh->mediumTowards(its, wo, medium);
+        ray = Ray3f(its.p, wo);
+    }
+    return result;
+}
+
+}  // namespace alphorn

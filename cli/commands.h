@@ -12,7 +12,8 @@ namespace alphorn::cli {
 using Command = std::pair<CLI::App*, std::function<int()>>;
 
 Command addRenderCommand(CLI::App& app);
-// The render farm client (cli/farm_commands.cpp) and the one-machine farm (cli/cluster_command.cpp).
+// The render farm client (cli/farm_commands.cpp) and the one-machine farm
+// (cli/cluster_command.cpp).
 Command addSubmitCommand(CLI::App& app);
 Command addWatchCommand(CLI::App& app);
 Command addStatusCommand(CLI::App& app);

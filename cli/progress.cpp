@@ -15,8 +15,11 @@ std::string formatDuration(double seconds) {
 }
 
 ProgressLine::ProgressLine(std::string label, uint64_t total)
-    : m_label(std::move(label)), m_total(total), m_tty(isatty(STDERR_FILENO)),
-      m_start(std::chrono::steady_clock::now()), m_lastPrint(m_start) {}
+    : m_label(std::move(label)),
+      m_total(total),
+      m_tty(isatty(STDERR_FILENO)),
+      m_start(std::chrono::steady_clock::now()),
+      m_lastPrint(m_start) {}
 
 void ProgressLine::update(uint64_t done, const std::string& extra) {
     m_done = done;

@@ -9,14 +9,14 @@
 namespace alphorn::cli {
 
 class ProgressLine {
-public:
+  public:
     ProgressLine(std::string label, uint64_t total);
     // done: units of work finished so far; extra: free text (e.g. "3.2 Mrays/s").
     void update(uint64_t done, const std::string& extra = "");
     // The closing line, e.g. "job 3: done, 64/64 passes in 1:02"; outcome says how it ended.
     void finish(const std::string& outcome = "done");
 
-private:
+  private:
     std::string m_label;
     uint64_t m_total, m_done = 0;
     bool m_tty;

@@ -58,11 +58,14 @@ static int runRender(const RenderOptions& options) {
     ProgressLine progress("render", settings.passes);
     auto start = std::chrono::steady_clock::now();
     FilmBlock film = renderLocal(*scene, settings, [&](const RenderStatus& status) {
-        double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        progress.update(status.passesDone,
-                        absl::StrFormat("%.2f Mrays/s", seconds > 0 ? status.rays / seconds * 1e-6 : 0.0));
+        double seconds =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        progress.update(
+            status.passesDone,
+            absl::StrFormat("%.2f Mrays/s", seconds > 0 ? status.rays / seconds * 1e-6 : 0.0));
     });
-    double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     progress.finish();
     if (film.invalidSamples)
         std::cerr << "warning: " << film.invalidSamples
@@ -80,7 +83,9 @@ static int runRender(const RenderOptions& options) {
 Command addRenderCommand(CLI::App& app) {
     auto options = std::make_shared<RenderOptions>();
     CLI::App* sub = app.add_subcommand("render", "Render a scene on this machine (EXR and PNG).");
-    sub->add_option("scene", options->scene, "Nori-format scene file")->required()->check(CLI::ExistingFile);
+    sub->add_option("scene", options->scene, "Nori-format scene file")
+        ->required()
+        ->check(CLI::ExistingFile);
     sub->add_option("-o,--output", options->output,
                     "Output EXR path; a PNG is written beside it (default: out/SCENE.exr)");
     auto* spp = sub->add_option("--spp", options->spp,

@@ -441,8 +441,9 @@ uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
     const std::string ours = ALPHORN_VERSION;
     const std::string theirs = request.version();
     if (!theirs.empty() && theirs.substr(0, theirs.find('.')) != ours.substr(0, ours.find('.')))
-        throw FarmError(Kind::FailedPrecondition,
-                        absl::StrFormat("worker version %s cannot join a %s coordinator", theirs, ours));
+        throw FarmError(
+            Kind::FailedPrecondition,
+            absl::StrFormat("worker version %s cannot join a %s coordinator", theirs, ours));
     const auto rows = m_db.query(
         "INSERT INTO workers(name, cores, memory_bytes, version, registered_at) VALUES(?, ?, ?, ?, "
         "?) RETURNING id",
@@ -559,8 +560,9 @@ v1::HeartbeatResponse Coordinator::heartbeat(const v1::HeartbeatRequest& request
                 slot.workerId = request.worker_id();
                 m_leases[leaseId] = LeaseRef{held.job_id(), held.unit_index()};
                 worker->leases.insert(leaseId);
-                logInfo("unit.readopted", {field("job", held.job_id()), field("unit", held.unit_index()),
-                                           field("worker", request.worker_id()), field("lease", leaseId)});
+                logInfo("unit.readopted",
+                        {field("job", held.job_id()), field("unit", held.unit_index()),
+                         field("worker", request.worker_id()), field("lease", leaseId)});
                 it = m_leases.find(leaseId);
             }
         }

@@ -85,7 +85,7 @@ class Worker {
     std::mutex m_leaseMutex;
     std::condition_variable m_leaseWake;
     std::map<uint64_t, v1::HeldUnit> m_activeLeases;  // lease id -> unit
-    std::set<uint64_t> m_fencedLeases;  // the coordinator told us to drop these
+    std::set<uint64_t> m_fencedLeases;                // the coordinator told us to drop these
     std::atomic<bool> m_cancelRender{false};
     uint64_t m_renderingLease = 0;
     grpc::ClientContext* m_acquireContext = nullptr;  // cancelled by requestStop()

@@ -8,7 +8,7 @@
 namespace alphorn {
 
 class Dielectric : public BSDF {
-public:
+  public:
     explicit Dielectric(const PropertyList& props) {
         // Nori's defaults: BK7 glass inside, air outside.
         m_intIOR = props.getPositiveFloat("intIOR", 1.5046f);
@@ -54,7 +54,7 @@ public:
                std::to_string(m_extIOR);
     }
 
-private:
+  private:
     float m_intIOR, m_extIOR;
 };
 

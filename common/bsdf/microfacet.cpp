@@ -12,7 +12,7 @@
 namespace alphorn {
 
 class Microfacet : public BSDF {
-public:
+  public:
     explicit Microfacet(const PropertyList& props)
         : m_alpha(props, "alpha", 0.1f), m_kd(props, "kd", Color3f(0.5f)) {
         // Validate the plain values here so errors name the XML line; textures in activate().
@@ -101,7 +101,7 @@ public:
                std::to_string(m_extIOR) + ", kd " + m_kd.toString();
     }
 
-private:
+  private:
     struct Params {
         Color3f kd;
         float ks, alpha;

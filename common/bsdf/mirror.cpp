@@ -6,7 +6,7 @@
 namespace alphorn {
 
 class Mirror : public BSDF {
-public:
+  public:
     explicit Mirror(const PropertyList&) {}
 
     Color3f eval(const BSDFQueryRecord&) const override { return Color3f(0.0f); }

@@ -20,6 +20,8 @@ Color3f Color3f::toLinearRGB() const {
     return Color3f(srgbDecode(r()), srgbDecode(g()), srgbDecode(b()));
 }
 
-std::string Color3f::toString() const { return absl::StrFormat("[%g, %g, %g]", r(), g(), b()); }
+std::string Color3f::toString() const {
+    return absl::StrFormat("[%g, %g, %g]", r(), g(), b());
+}
 
 }  // namespace alphorn

@@ -34,18 +34,26 @@ inline constexpr float Sqrt2 = 1.41421356237309504880f;
 inline constexpr float Epsilon = 1e-4f;
 inline constexpr float Infinity = std::numeric_limits<float>::infinity();
 
-inline float degToRad(float deg) { return deg * (Pi / 180.0f); }
-inline float radToDeg(float rad) { return rad * (180.0f / Pi); }
+inline float degToRad(float deg) {
+    return deg * (Pi / 180.0f);
+}
+inline float radToDeg(float rad) {
+    return rad * (180.0f / Pi);
+}
 
 template <typename T>
 inline T clamp(T value, T lo, T hi) {
     return value < lo ? lo : (value > hi ? hi : value);
 }
 
-inline float lerp(float t, float a, float b) { return (1.0f - t) * a + t * b; }
+inline float lerp(float t, float a, float b) {
+    return (1.0f - t) * a + t * b;
+}
 
 // sqrt that tolerates tiny negative arguments from rounding (e.g. 1 - cos^2).
-inline float safeSqrt(float x) { return std::sqrt(std::max(0.0f, x)); }
+inline float safeSqrt(float x) {
+    return std::sqrt(std::max(0.0f, x));
+}
 
 // Nori's spherical coordinate helpers: theta from +z, phi in [0, 2pi) around z.
 inline Vector3f sphericalDirection(float theta, float phi) {

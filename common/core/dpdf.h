@@ -7,8 +7,11 @@
 namespace alphorn {
 
 class DiscretePDF {
-public:
-    void clear() { m_cdf.assign(1, 0.0); m_normalized = false; }
+  public:
+    void clear() {
+        m_cdf.assign(1, 0.0);
+        m_normalized = false;
+    }
     void reserve(size_t n) { m_cdf.reserve(n + 1); }
     void append(double weight) { m_cdf.push_back(m_cdf.back() + weight); }
     size_t size() const { return m_cdf.size() - 1; }
@@ -21,7 +24,7 @@ public:
     // As sample(), and rescales u to a fresh uniform number for reuse.
     size_t sampleReuse(float& u) const;
 
-private:
+  private:
     std::vector<double> m_cdf{0.0};
     double m_sum = 0.0;
     bool m_normalized = false;

@@ -9,18 +9,30 @@ namespace alphorn {
 
 const char* kindTag(ObjectKind kind) {
     switch (kind) {
-        case ObjectKind::Scene: return "scene";
-        case ObjectKind::Mesh: return "mesh";
-        case ObjectKind::BSDF: return "bsdf";
-        case ObjectKind::Texture: return "texture";
-        case ObjectKind::Medium: return "medium";
-        case ObjectKind::PhaseFunction: return "phase";
-        case ObjectKind::Emitter: return "emitter";
-        case ObjectKind::Camera: return "camera";
-        case ObjectKind::Integrator: return "integrator";
-        case ObjectKind::Sampler: return "sampler";
-        case ObjectKind::Filter: return "rfilter";
-        case ObjectKind::Test: return "test";
+        case ObjectKind::Scene:
+            return "scene";
+        case ObjectKind::Mesh:
+            return "mesh";
+        case ObjectKind::BSDF:
+            return "bsdf";
+        case ObjectKind::Texture:
+            return "texture";
+        case ObjectKind::Medium:
+            return "medium";
+        case ObjectKind::PhaseFunction:
+            return "phase";
+        case ObjectKind::Emitter:
+            return "emitter";
+        case ObjectKind::Camera:
+            return "camera";
+        case ObjectKind::Integrator:
+            return "integrator";
+        case ObjectKind::Sampler:
+            return "sampler";
+        case ObjectKind::Filter:
+            return "rfilter";
+        case ObjectKind::Test:
+            return "test";
     }
     return "?";
 }

@@ -28,7 +28,7 @@ enum class ObjectKind {
 const char* kindTag(ObjectKind kind);
 
 class Object : public std::enable_shared_from_this<Object> {
-public:
+  public:
     virtual ~Object() = default;
     virtual ObjectKind kind() const = 0;
 
@@ -48,12 +48,12 @@ public:
         throw Error(m_source + ": " + absl::StrFormat(format, args...));
     }
 
-private:
+  private:
     std::string m_source = "<unknown>";
 };
 
 class ObjectFactory {
-public:
+  public:
     using Constructor = std::function<std::shared_ptr<Object>(const PropertyList&)>;
 
     static bool registerClass(ObjectKind kind, const std::string& type, Constructor constructor);

@@ -6,14 +6,22 @@ namespace alphorn {
 
 static const char* typeName(PropertyList::Type type) {
     switch (type) {
-        case PropertyList::Type::Boolean: return "boolean";
-        case PropertyList::Type::Integer: return "integer";
-        case PropertyList::Type::Float: return "float";
-        case PropertyList::Type::String: return "string";
-        case PropertyList::Type::Color: return "color";
-        case PropertyList::Type::Point: return "point";
-        case PropertyList::Type::Vector: return "vector";
-        case PropertyList::Type::Transform: return "transform";
+        case PropertyList::Type::Boolean:
+            return "boolean";
+        case PropertyList::Type::Integer:
+            return "integer";
+        case PropertyList::Type::Float:
+            return "float";
+        case PropertyList::Type::String:
+            return "string";
+        case PropertyList::Type::Color:
+            return "color";
+        case PropertyList::Type::Point:
+            return "point";
+        case PropertyList::Type::Vector:
+            return "vector";
+        case PropertyList::Type::Transform:
+            return "transform";
     }
     return "?";
 }
@@ -39,11 +47,21 @@ const PropertyList::Entry& PropertyList::get(const std::string& name, Type type)
     return *entry;
 }
 
-void PropertyList::setBoolean(const std::string& n, bool v) { set(n, Type::Boolean, v); }
-void PropertyList::setInteger(const std::string& n, int v) { set(n, Type::Integer, v); }
-void PropertyList::setFloat(const std::string& n, float v) { set(n, Type::Float, v); }
-void PropertyList::setString(const std::string& n, const std::string& v) { set(n, Type::String, v); }
-void PropertyList::setColor(const std::string& n, const Color3f& v) { set(n, Type::Color, v); }
+void PropertyList::setBoolean(const std::string& n, bool v) {
+    set(n, Type::Boolean, v);
+}
+void PropertyList::setInteger(const std::string& n, int v) {
+    set(n, Type::Integer, v);
+}
+void PropertyList::setFloat(const std::string& n, float v) {
+    set(n, Type::Float, v);
+}
+void PropertyList::setString(const std::string& n, const std::string& v) {
+    set(n, Type::String, v);
+}
+void PropertyList::setColor(const std::string& n, const Color3f& v) {
+    set(n, Type::Color, v);
+}
 void PropertyList::setPoint(const std::string& n, const Point3f& v) {
     set(n, Type::Point, Point3f(v));
 }
@@ -54,13 +72,13 @@ void PropertyList::setTransform(const std::string& n, const Transform& v) {
     set(n, Type::Transform, v);
 }
 
-#define ALPHORN_GETTERS(Name, CppType, TypeTag, Alternative)                              \
-    CppType PropertyList::get##Name(const std::string& name) const {                      \
-        return std::get<Alternative>(get(name, Type::TypeTag).value);                     \
-    }                                                                                     \
+#define ALPHORN_GETTERS(Name, CppType, TypeTag, Alternative)                             \
+    CppType PropertyList::get##Name(const std::string& name) const {                     \
+        return std::get<Alternative>(get(name, Type::TypeTag).value);                    \
+    }                                                                                    \
     CppType PropertyList::get##Name(const std::string& name, const CppType& def) const { \
-        const Entry* e = find(name, Type::TypeTag);                                       \
-        return e ? CppType(std::get<Alternative>(e->value)) : def;                        \
+        const Entry* e = find(name, Type::TypeTag);                                      \
+        return e ? CppType(std::get<Alternative>(e->value)) : def;                       \
     }
 
 bool PropertyList::getBoolean(const std::string& name) const {
@@ -127,9 +145,10 @@ std::vector<std::string> PropertyList::unusedNames() const {
 
 std::string PropertyList::resolvePath(const std::string& path) const {
     std::filesystem::path p(path);
-    std::string resolved = p.is_absolute() || m_baseDirectory.empty()
-                               ? p.lexically_normal().string()
-                               : (std::filesystem::path(m_baseDirectory) / p).lexically_normal().string();
+    std::string resolved =
+        p.is_absolute() || m_baseDirectory.empty()
+            ? p.lexically_normal().string()
+            : (std::filesystem::path(m_baseDirectory) / p).lexically_normal().string();
     if (m_dependencies) m_dependencies->push_back(resolved);
     return resolved;
 }

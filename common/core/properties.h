@@ -14,7 +14,7 @@
 namespace alphorn {
 
 class PropertyList {
-public:
+  public:
     enum class Type { Boolean, Integer, Float, String, Color, Point, Vector, Transform };
 
     PropertyList() = default;
@@ -74,7 +74,7 @@ public:
         throw Error(m_source + ": " + absl::StrFormat(format, args...));
     }
 
-private:
+  private:
     using Value = std::variant<bool, int, float, std::string, Color3f, Point3f, Transform>;
     struct Entry {
         Type type;

@@ -22,11 +22,10 @@ inline uint64_t mix64(uint64_t z) {
 enum class StreamPurpose : uint64_t { Camera = 1, Photon = 2, Test = 3 };
 
 class Rng {
-public:
+  public:
     Rng() : m_pcg(0x853c49e6748fea9bULL, 0xda3e39cb94b95bdbULL) {}
     Rng(uint64_t seed, uint64_t pass, uint64_t stream, StreamPurpose purpose)
-        : m_pcg(mix64(seed ^ mix64(pass ^ mix64(static_cast<uint64_t>(purpose)))),
-                mix64(stream)) {}
+        : m_pcg(mix64(seed ^ mix64(pass ^ mix64(static_cast<uint64_t>(purpose)))), mix64(stream)) {}
 
     uint32_t nextUInt() { return m_pcg(); }
     uint32_t nextUInt(uint32_t bound) { return m_pcg(bound); }
@@ -45,7 +44,7 @@ public:
     }
     void advance(uint64_t delta) { m_pcg.advance(delta); }
 
-private:
+  private:
     pcg32 m_pcg;
 };
 

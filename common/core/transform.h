@@ -7,7 +7,7 @@
 namespace alphorn {
 
 class Transform {
-public:
+  public:
     Transform() : m_transform(Matrix4f::Identity()), m_inverse(Matrix4f::Identity()) {}
     explicit Transform(const Matrix4f& m) : m_transform(m), m_inverse(m.inverse()) {}
     Transform(const Matrix4f& m, const Matrix4f& inv) : m_transform(m), m_inverse(inv) {}
@@ -19,9 +19,7 @@ public:
         return Transform(m_transform * t.m_transform, t.m_inverse * m_inverse);
     }
 
-    Vector3f applyVector(const Vector3f& v) const {
-        return m_transform.topLeftCorner<3, 3>() * v;
-    }
+    Vector3f applyVector(const Vector3f& v) const { return m_transform.topLeftCorner<3, 3>() * v; }
     // Normals transform with the inverse transpose.
     Normal3f applyNormal(const Normal3f& n) const {
         return m_inverse.topLeftCorner<3, 3>().transpose() * n;
@@ -36,7 +34,7 @@ public:
     bool isIdentity() const { return m_transform.isIdentity(0.0f); }
     std::string toString() const;
 
-private:
+  private:
     Matrix4f m_transform;
     Matrix4f m_inverse;
 };

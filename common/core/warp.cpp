@@ -2,7 +2,9 @@
 
 namespace alphorn::warp {
 
-Point2f squareToUniformSquare(const Point2f& sample) { return sample; }
+Point2f squareToUniformSquare(const Point2f& sample) {
+    return sample;
+}
 
 float squareToUniformSquarePdf(const Point2f& p) {
     return (p.array() >= 0).all() && (p.array() <= 1).all() ? 1.0f : 0.0f;
@@ -35,7 +37,9 @@ Point2f squareToUniformDisk(const Point2f& sample) {
     return Point2f(r * std::cos(phi), r * std::sin(phi));
 }
 
-float squareToUniformDiskPdf(const Point2f& p) { return p.squaredNorm() <= 1.0f ? InvPi : 0.0f; }
+float squareToUniformDiskPdf(const Point2f& p) {
+    return p.squaredNorm() <= 1.0f ? InvPi : 0.0f;
+}
 
 Point2f squareToUniformTriangle(const Point2f& sample) {
     float su = std::sqrt(sample.x());
@@ -49,7 +53,9 @@ Vector3f squareToUniformSphere(const Point2f& sample) {
     return Vector3f(r * std::cos(phi), r * std::sin(phi), z);
 }
 
-float squareToUniformSpherePdf(const Vector3f&) { return Inv4Pi; }
+float squareToUniformSpherePdf(const Vector3f&) {
+    return Inv4Pi;
+}
 
 Vector3f squareToUniformHemisphere(const Point2f& sample) {
     float z = sample.x();
@@ -58,7 +64,9 @@ Vector3f squareToUniformHemisphere(const Point2f& sample) {
     return Vector3f(r * std::cos(phi), r * std::sin(phi), z);
 }
 
-float squareToUniformHemispherePdf(const Vector3f& v) { return v.z() >= 0.0f ? Inv2Pi : 0.0f; }
+float squareToUniformHemispherePdf(const Vector3f& v) {
+    return v.z() >= 0.0f ? Inv2Pi : 0.0f;
+}
 
 Vector3f squareToUniformSphereCap(const Point2f& sample, float cosThetaMax) {
     float z = 1.0f - sample.x() * (1.0f - cosThetaMax);

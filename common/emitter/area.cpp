@@ -9,7 +9,7 @@
 namespace alphorn {
 
 class AreaLight : public Emitter {
-public:
+  public:
     explicit AreaLight(const PropertyList& props) {
         m_radiance = props.getNonNegativeColor("radiance", Color3f(0.0f));
         if (!props.has("radiance")) props.fail("an area emitter needs a \"radiance\" colour");
@@ -64,7 +64,7 @@ public:
         return "area light, radiance " + m_radiance.toString();
     }
 
-private:
+  private:
     Color3f m_radiance;
 };
 

@@ -6,7 +6,7 @@
 namespace alphorn {
 
 class PointLight : public Emitter {
-public:
+  public:
     explicit PointLight(const PropertyList& props) {
         m_position = props.getPoint("position", Point3f::Zero());
         m_power = props.getNonNegativeColor("power", Color3f(0.0f));
@@ -44,7 +44,7 @@ public:
 
     std::string toString() const override { return "point light, power " + m_power.toString(); }
 
-private:
+  private:
     Point3f m_position;
     Color3f m_power;
 };

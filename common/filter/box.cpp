@@ -4,7 +4,7 @@
 namespace alphorn {
 
 class BoxFilter : public ReconstructionFilter {
-public:
+  public:
     explicit BoxFilter(const PropertyList& props) { m_radius = validatedRadius(props, 0.5f); }
     float eval(float x) const override { return std::abs(x) <= m_radius ? 1.0f : 0.0f; }
 };

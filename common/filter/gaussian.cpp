@@ -5,7 +5,7 @@
 namespace alphorn {
 
 class GaussianFilter : public ReconstructionFilter {
-public:
+  public:
     explicit GaussianFilter(const PropertyList& props) {
         m_radius = validatedRadius(props, 2.0f);
         m_stddev = props.getPositiveFloat("stddev", 0.5f);
@@ -15,7 +15,7 @@ public:
         return std::max(0.0f, std::exp(alpha * x * x) - std::exp(alpha * m_radius * m_radius));
     }
 
-private:
+  private:
     float m_stddev;
 };
 

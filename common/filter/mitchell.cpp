@@ -5,7 +5,7 @@
 namespace alphorn {
 
 class MitchellNetravaliFilter : public ReconstructionFilter {
-public:
+  public:
     explicit MitchellNetravaliFilter(const PropertyList& props) {
         m_radius = validatedRadius(props, 2.0f);
         m_B = props.getFloat("B", 1.0f / 3.0f);
@@ -16,7 +16,8 @@ public:
         float x2 = x * x, x3 = x2 * x;
         if (x < 1.0f)
             return 1.0f / 6.0f *
-                   ((12 - 9 * m_B - 6 * m_C) * x3 + (-18 + 12 * m_B + 6 * m_C) * x2 + (6 - 2 * m_B));
+                   ((12 - 9 * m_B - 6 * m_C) * x3 + (-18 + 12 * m_B + 6 * m_C) * x2 +
+                    (6 - 2 * m_B));
         if (x < 2.0f)
             return 1.0f / 6.0f *
                    ((-m_B - 6 * m_C) * x3 + (6 * m_B + 30 * m_C) * x2 + (-12 * m_B - 48 * m_C) * x +
@@ -24,7 +25,7 @@ public:
         return 0.0f;
     }
 
-private:
+  private:
     float m_B, m_C;
 };
 

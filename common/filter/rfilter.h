@@ -7,12 +7,12 @@
 namespace alphorn {
 
 class ReconstructionFilter : public Object {
-public:
+  public:
     ObjectKind kind() const override { return ObjectKind::Filter; }
     float radius() const { return m_radius; }
     virtual float eval(float x) const = 0;
 
-protected:
+  protected:
     static float validatedRadius(const PropertyList& props, float defaultRadius);
     float m_radius = 0.5f;
 };

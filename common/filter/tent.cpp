@@ -4,7 +4,7 @@
 namespace alphorn {
 
 class TentFilter : public ReconstructionFilter {
-public:
+  public:
     explicit TentFilter(const PropertyList&) { m_radius = 1.0f; }
     float eval(float x) const override { return std::max(0.0f, 1.0f - std::abs(x)); }
 };

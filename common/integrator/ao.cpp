@@ -9,7 +9,7 @@
 namespace alphorn {
 
 class AmbientOcclusion : public Integrator {
-public:
+  public:
     explicit AmbientOcclusion(const PropertyList& props) {
         // Infinite by default (Nori's); a finite length gives the usual local "dirt" look.
         m_length = props.getFloat("length", Infinity);
@@ -27,7 +27,7 @@ public:
 
     std::string toString() const override { return "ambient occlusion"; }
 
-private:
+  private:
     float m_length;
 };
 

@@ -7,7 +7,7 @@
 namespace alphorn {
 
 class DirectEms : public Integrator {
-public:
+  public:
     explicit DirectEms(const PropertyList&) {}
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,

@@ -7,7 +7,7 @@
 namespace alphorn {
 
 class DirectMats : public Integrator {
-public:
+  public:
     explicit DirectMats(const PropertyList&) {}
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,

@@ -8,7 +8,7 @@
 namespace alphorn {
 
 class DirectMis : public Integrator {
-public:
+  public:
     explicit DirectMis(const PropertyList&) {}
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,

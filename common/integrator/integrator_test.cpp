@@ -24,7 +24,7 @@ struct Estimate {
 };
 
 class IntegratorTest : public ::testing::Test {
-protected:
+  protected:
     void SetUp() override {
         m_dir = std::filesystem::temp_directory_path() /
                 ("alphorn_integrator_test_" + std::to_string(::getpid()));

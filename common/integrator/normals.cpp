@@ -6,7 +6,7 @@
 namespace alphorn {
 
 class NormalIntegrator : public Integrator {
-public:
+  public:
     explicit NormalIntegrator(const PropertyList&) {}
 
     Color3f Li(const Scene& scene, Sampler&, const Ray3f& ray, const PassData*) const override {

@@ -9,7 +9,7 @@
 namespace alphorn {
 
 class PathEms : public Integrator {
-public:
+  public:
     explicit PathEms(const PropertyList& props) {
         m_maxDepth = props.getInteger("maxDepth", -1);
         if (m_maxDepth < -1) props.fail("\"maxDepth\" must be -1 (unlimited) or >= 0");
@@ -52,7 +52,7 @@ public:
 
     std::string toString() const override { return "path_ems integrator"; }
 
-private:
+  private:
     int m_maxDepth;
 };
 

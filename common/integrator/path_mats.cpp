@@ -10,7 +10,7 @@
 namespace alphorn {
 
 class PathMats : public Integrator {
-public:
+  public:
     explicit PathMats(const PropertyList& props) {
         m_maxDepth = props.getInteger("maxDepth", -1);
         if (m_maxDepth < -1) props.fail("\"maxDepth\" must be -1 (unlimited) or >= 0");
@@ -46,7 +46,7 @@ public:
 
     std::string toString() const override { return "path_mats integrator"; }
 
-private:
+  private:
     int m_maxDepth;
 };
 

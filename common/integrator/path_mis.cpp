@@ -10,7 +10,7 @@
 namespace alphorn {
 
 class PathMis : public Integrator {
-public:
+  public:
     explicit PathMis(const PropertyList& props) {
         m_maxDepth = props.getInteger("maxDepth", -1);
         if (m_maxDepth < -1) props.fail("\"maxDepth\" must be -1 (unlimited) or >= 0");
@@ -62,7 +62,7 @@ public:
 
     std::string toString() const override { return "path_mis integrator"; }
 
-private:
+  private:
     int m_maxDepth;
 };
 

@@ -7,7 +7,7 @@
 namespace alphorn {
 
 class SimpleIntegrator : public Integrator {
-public:
+  public:
     explicit SimpleIntegrator(const PropertyList& props) {
         m_position = props.getPoint("position");
         m_energy = props.getNonNegativeColor("energy", Color3f(0.0f));
@@ -31,7 +31,7 @@ public:
 
     std::string toString() const override { return "simple integrator"; }
 
-private:
+  private:
     Point3f m_position;
     Color3f m_energy;
 };

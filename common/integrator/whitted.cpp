@@ -8,7 +8,7 @@
 namespace alphorn {
 
 class WhittedIntegrator : public Integrator {
-public:
+  public:
     explicit WhittedIntegrator(const PropertyList&) {}
 
     // Nori writes this recursively; a loop with a throughput is the same estimator without the

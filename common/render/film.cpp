@@ -7,7 +7,10 @@
 namespace alphorn {
 
 FilmBlock::FilmBlock(int x0, int y0, int width, int height)
-    : m_x0(x0), m_y0(y0), m_width(width), m_height(height),
+    : m_x0(x0),
+      m_y0(y0),
+      m_width(width),
+      m_height(height),
       m_pixels(static_cast<size_t>(width) * height) {}
 
 void FilmBlock::clear() {
@@ -16,8 +19,10 @@ void FilmBlock::clear() {
 }
 
 void FilmBlock::add(const FilmBlock& other) {
-    int xBegin = std::max(m_x0, other.m_x0), xEnd = std::min(m_x0 + m_width, other.m_x0 + other.m_width);
-    int yBegin = std::max(m_y0, other.m_y0), yEnd = std::min(m_y0 + m_height, other.m_y0 + other.m_height);
+    int xBegin = std::max(m_x0, other.m_x0),
+        xEnd = std::min(m_x0 + m_width, other.m_x0 + other.m_width);
+    int yBegin = std::max(m_y0, other.m_y0),
+        yEnd = std::min(m_y0 + m_height, other.m_y0 + other.m_height);
     for (int y = yBegin; y < yEnd; ++y)
         for (int x = xBegin; x < xEnd; ++x) at(x, y) += other.at(x, y);
     invalidSamples += other.invalidSamples;

@@ -49,7 +49,7 @@ inline double fromFixedPoint(FixedPoint value) {
 // A rectangle of pixel sums: [x0, x0 + width) x [y0, y0 + height) in image pixels. The
 // rectangle may reach outside the image (a tile plus its filter border).
 class FilmBlock {
-public:
+  public:
     FilmBlock() = default;
     FilmBlock(int x0, int y0, int width, int height);
 
@@ -76,7 +76,7 @@ public:
     // Samples rejected as NaN, infinite or beyond the fixed-point range (never clamped).
     uint64_t invalidSamples = 0;
 
-private:
+  private:
     int m_x0 = 0, m_y0 = 0, m_width = 0, m_height = 0;
     std::vector<PixelSum> m_pixels;
 };

@@ -18,7 +18,8 @@ void writeEXR(const std::string& path, const Image& image) {
     try {
         Imf::Header header(image.width, image.height);
         header.compression() = Imf::ZIP_COMPRESSION;
-        for (const char* name : {"R", "G", "B"}) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+        for (const char* name : {"R", "G", "B"})
+            header.channels().insert(name, Imf::Channel(Imf::FLOAT));
         Imf::FrameBuffer frame;
         const size_t xStride = 3 * sizeof(float), yStride = xStride * image.width;
         char* base = reinterpret_cast<char*>(const_cast<float*>(image.rgb.data()));
@@ -44,8 +45,10 @@ Image readEXR(const std::string& path) {
                      (window.min.x * xStride + window.min.y * yStride);
         Imf::FrameBuffer frame;
         frame.insert("R", Imf::Slice(Imf::FLOAT, base, xStride, yStride, 1, 1, 0.0));
-        frame.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xStride, yStride, 1, 1, 0.0));
-        frame.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xStride, yStride, 1, 1, 0.0));
+        frame.insert("G",
+                     Imf::Slice(Imf::FLOAT, base + sizeof(float), xStride, yStride, 1, 1, 0.0));
+        frame.insert("B",
+                     Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xStride, yStride, 1, 1, 0.0));
         file.setFrameBuffer(frame);
         file.readPixels(window.min.y, window.max.y);
         return image;
@@ -97,8 +100,7 @@ void writePNG(const std::string& path, const Image& image, float exposure) {
                  PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
     png_write_info(png, info);
-    for (int y = 0; y < image.height; ++y)
-        png_write_row(png, &pixels[3 * size_t(y) * image.width]);
+    for (int y = 0; y < image.height; ++y) png_write_row(png, &pixels[3 * size_t(y) * image.width]);
     png_write_end(png, nullptr);
     png_destroy_write_struct(&png, &info);
 }

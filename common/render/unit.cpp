@@ -14,7 +14,8 @@ std::vector<Tile> makeTiles(int width, int height, int tileSize) {
     std::vector<Tile> tiles;
     for (int y = 0; y < height; y += tileSize)
         for (int x = 0; x < width; x += tileSize)
-            tiles.push_back(Tile{x, y, std::min(x + tileSize, width), std::min(y + tileSize, height)});
+            tiles.push_back(
+                Tile{x, y, std::min(x + tileSize, width), std::min(y + tileSize, height)});
     return tiles;
 }
 
@@ -81,47 +82,49 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
     const int width = camera.outputSize().x();
     const size_t rows = static_cast<size_t>(tile.height());
     const size_t passes = unit.passEnd - unit.passBegin;
-    if (passData.size() != passes) fail("renderUnit: pass data for %zu passes, expected %zu", passData.size(), passes);
+    if (passData.size() != passes)
+        fail("renderUnit: pass data for %zu passes, expected %zu", passData.size(), passes);
     std::mutex outMutex;
     std::atomic<bool> cancelled{false};
 
     // Work items are (pass, row) pairs. Each task renders into its own block and adds it to
     // `out` exactly, so the partitioning chosen by TBB cannot change the result.
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, passes * rows), [&](const tbb::blocked_range<size_t>& range) {
-        FilmBlock local(out.x0(), out.y0(), out.width(), out.height());
-        std::unique_ptr<Sampler> sampler = scene.sampler()->clone();
-        const uint64_t raysBefore = raysTracedByThisThread();
-        uint64_t samples = 0;
-        for (size_t item = range.begin(); item != range.end(); ++item) {
-            if (cancel && cancel->load(std::memory_order_relaxed)) {
-                cancelled = true;
-                break;
+    tbb::parallel_for(
+        tbb::blocked_range<size_t>(0, passes * rows), [&](const tbb::blocked_range<size_t>& range) {
+            FilmBlock local(out.x0(), out.y0(), out.width(), out.height());
+            std::unique_ptr<Sampler> sampler = scene.sampler()->clone();
+            const uint64_t raysBefore = raysTracedByThisThread();
+            uint64_t samples = 0;
+            for (size_t item = range.begin(); item != range.end(); ++item) {
+                if (cancel && cancel->load(std::memory_order_relaxed)) {
+                    cancelled = true;
+                    break;
+                }
+                const size_t passOffset = item / rows;
+                const uint32_t pass = unit.passBegin + static_cast<uint32_t>(passOffset);
+                const int y = tile.y0 + static_cast<int>(item % rows);
+                const PassData* data = passData[passOffset].get();
+                for (int x = tile.x0; x < tile.x1; ++x) {
+                    const uint64_t pixelIndex = static_cast<uint64_t>(y) * width + x;
+                    sampler->startStream(seed, pass, pixelIndex, StreamPurpose::Camera);
+                    const Point2f pixelSample = Point2f(float(x), float(y)) + sampler->next2D();
+                    const Point2f apertureSample = sampler->next2D();
+                    Ray3f ray;
+                    Color3f value = camera.sampleRay(ray, pixelSample, apertureSample);
+                    if (!value.isBlack()) value *= integrator.Li(scene, *sampler, ray, data);
+                    splat(local, filter, pixelSample, value);
+                }
+                samples += static_cast<uint64_t>(tile.width());
             }
-            const size_t passOffset = item / rows;
-            const uint32_t pass = unit.passBegin + static_cast<uint32_t>(passOffset);
-            const int y = tile.y0 + static_cast<int>(item % rows);
-            const PassData* data = passData[passOffset].get();
-            for (int x = tile.x0; x < tile.x1; ++x) {
-                const uint64_t pixelIndex = static_cast<uint64_t>(y) * width + x;
-                sampler->startStream(seed, pass, pixelIndex, StreamPurpose::Camera);
-                const Point2f pixelSample = Point2f(float(x), float(y)) + sampler->next2D();
-                const Point2f apertureSample = sampler->next2D();
-                Ray3f ray;
-                Color3f value = camera.sampleRay(ray, pixelSample, apertureSample);
-                if (!value.isBlack()) value *= integrator.Li(scene, *sampler, ray, data);
-                splat(local, filter, pixelSample, value);
+            {
+                std::lock_guard lock(outMutex);
+                out.add(local);
             }
-            samples += static_cast<uint64_t>(tile.width());
-        }
-        {
-            std::lock_guard lock(outMutex);
-            out.add(local);
-        }
-        if (counters) {
-            counters->samples += samples;
-            counters->rays += raysTracedByThisThread() - raysBefore;
-        }
-    });
+            if (counters) {
+                counters->samples += samples;
+                counters->rays += raysTracedByThisThread() - raysBefore;
+            }
+        });
     return !cancelled;
 }
 

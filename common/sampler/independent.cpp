@@ -5,14 +5,15 @@
 namespace alphorn {
 
 class Independent : public Sampler {
-public:
+  public:
     explicit Independent(const PropertyList& props) {
         m_sampleCount = props.getPositiveInteger("sampleCount", 1);
     }
 
     std::unique_ptr<Sampler> clone() const override { return std::make_unique<Independent>(*this); }
 
-    void startStream(uint64_t seed, uint64_t pass, uint64_t stream, StreamPurpose purpose) override {
+    void startStream(uint64_t seed, uint64_t pass, uint64_t stream,
+                     StreamPurpose purpose) override {
         m_rng = Rng(seed, pass, stream, purpose);
     }
 
@@ -26,7 +27,7 @@ public:
         return "independent sampler (" + std::to_string(m_sampleCount) + " spp)";
     }
 
-private:
+  private:
     Rng m_rng;
 };
 

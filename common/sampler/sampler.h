@@ -9,7 +9,7 @@
 namespace alphorn {
 
 class Sampler : public Object {
-public:
+  public:
     ObjectKind kind() const override { return ObjectKind::Sampler; }
 
     virtual std::unique_ptr<Sampler> clone() const = 0;
@@ -22,7 +22,7 @@ public:
     // Samples per pixel the scene asks for: the default number of passes of a render.
     int sampleCount() const { return m_sampleCount; }
 
-protected:
+  protected:
     int m_sampleCount = 1;
 };
 

@@ -6,9 +6,13 @@ namespace alphorn {
 
 static thread_local uint64_t t_rayCount = 0;
 
-uint64_t raysTracedByThisThread() { return t_rayCount; }
+uint64_t raysTracedByThisThread() {
+    return t_rayCount;
+}
 
-Accel::~Accel() { release(); }
+Accel::~Accel() {
+    release();
+}
 
 void Accel::release() {
     if (m_scene) rtcReleaseScene(m_scene);
@@ -29,9 +33,9 @@ void Accel::build(const std::vector<std::shared_ptr<Mesh>>& meshes) {
     for (const auto& mesh : meshes) {
         if (mesh->triangleCount() == 0) continue;
         RTCGeometry geometry = rtcNewGeometry(m_device, RTC_GEOMETRY_TYPE_TRIANGLE);
-        float* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-            geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-            mesh->vertexCount()));
+        float* vertices = static_cast<float*>(
+            rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                    3 * sizeof(float), mesh->vertexCount()));
         std::copy_n(mesh->positions().data(), 3 * mesh->vertexCount(), vertices);
         uint32_t* indices = static_cast<uint32_t*>(
             rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
@@ -79,7 +83,7 @@ bool Accel::intersect(const Ray3f& ray, Intersection& its) const {
     if (rayhit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
     its.t = rayhit.ray.tfar;
     m_meshes[rayhit.hit.geomID]->fillIntersection(rayhit.hit.primID, rayhit.hit.u, rayhit.hit.v,
-                                                   its);
+                                                  its);
     return true;
 }
 

@@ -9,7 +9,7 @@
 namespace alphorn {
 
 class Accel {
-public:
+  public:
     Accel() = default;
     Accel(const Accel&) = delete;
     Accel& operator=(const Accel&) = delete;
@@ -22,7 +22,7 @@ public:
     // The Embree scene itself, for benchmarks that measure raw Embree throughput.
     RTCScene embreeScene() const { return m_scene; }
 
-private:
+  private:
     void release();
 
     RTCDevice m_device = nullptr;

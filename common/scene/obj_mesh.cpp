@@ -13,7 +13,7 @@
 namespace alphorn {
 
 class WavefrontOBJ : public Mesh {
-public:
+  public:
     explicit WavefrontOBJ(const PropertyList& props) {
         std::string filename = props.getString("filename");
         std::string path = props.resolvePath(filename);
@@ -22,7 +22,7 @@ public:
         load(props, path, toWorld);
     }
 
-private:
+  private:
     void load(const PropertyList& props, const std::string& path, const Transform& toWorld) {
         std::ifstream file(path);
         if (!file) props.fail("cannot open OBJ file \"%s\": %s", path, std::strerror(errno));
@@ -48,8 +48,8 @@ private:
                 if (index.vertex_index < 0 || index.vertex_index >= positionCount ||
                     index.normal_index >= normalCount || index.texcoord_index >= uvCount)
                     props.fail("OBJ file \"%s\" has a face with an out-of-range index", path);
-                auto key = std::make_tuple(index.vertex_index, index.normal_index,
-                                           index.texcoord_index);
+                auto key =
+                    std::make_tuple(index.vertex_index, index.normal_index, index.texcoord_index);
                 auto [it, inserted] =
                     vertexIds.emplace(key, static_cast<uint32_t>(vertexIds.size()));
                 if (inserted) {

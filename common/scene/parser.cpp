@@ -32,30 +32,37 @@ enum class Tag {
 };
 
 const std::map<std::string, ObjectKind> kObjectTags = {
-    {"scene", ObjectKind::Scene},        {"mesh", ObjectKind::Mesh},
-    {"bsdf", ObjectKind::BSDF},          {"texture", ObjectKind::Texture},
-    {"medium", ObjectKind::Medium},      {"phase", ObjectKind::PhaseFunction},
-    {"emitter", ObjectKind::Emitter},    {"camera", ObjectKind::Camera},
-    {"integrator", ObjectKind::Integrator}, {"sampler", ObjectKind::Sampler},
-    {"rfilter", ObjectKind::Filter},     {"test", ObjectKind::Test},
+    {"scene", ObjectKind::Scene},
+    {"mesh", ObjectKind::Mesh},
+    {"bsdf", ObjectKind::BSDF},
+    {"texture", ObjectKind::Texture},
+    {"medium", ObjectKind::Medium},
+    {"phase", ObjectKind::PhaseFunction},
+    {"emitter", ObjectKind::Emitter},
+    {"camera", ObjectKind::Camera},
+    {"integrator", ObjectKind::Integrator},
+    {"sampler", ObjectKind::Sampler},
+    {"rfilter", ObjectKind::Filter},
+    {"test", ObjectKind::Test},
 };
 
 const std::map<std::string, Tag> kPropertyTags = {
-    {"boolean", Tag::Boolean},     {"integer", Tag::Integer}, {"float", Tag::Float},
-    {"string", Tag::String},       {"point", Tag::Point},     {"vector", Tag::Vector},
-    {"color", Tag::Color},         {"transform", Tag::Transform},
-    {"translate", Tag::Translate}, {"matrix", Tag::Matrix},   {"rotate", Tag::Rotate},
-    {"scale", Tag::Scale},         {"lookat", Tag::LookAt},
+    {"boolean", Tag::Boolean}, {"integer", Tag::Integer},     {"float", Tag::Float},
+    {"string", Tag::String},   {"point", Tag::Point},         {"vector", Tag::Vector},
+    {"color", Tag::Color},     {"transform", Tag::Transform}, {"translate", Tag::Translate},
+    {"matrix", Tag::Matrix},   {"rotate", Tag::Rotate},       {"scale", Tag::Scale},
+    {"lookat", Tag::LookAt},
 };
 
 class Parser {
-public:
+  public:
     explicit Parser(std::string path) : m_path(std::move(path)) {}
 
     ParseResult parse() {
         std::ifstream file(m_path, std::ios::binary);
         if (!file) fail("%s: cannot open the scene file: %s", m_path, std::strerror(errno));
-        if (std::filesystem::is_directory(m_path)) fail("%s: is a directory, not a scene file", m_path);
+        if (std::filesystem::is_directory(m_path))
+            fail("%s: is a directory, not a scene file", m_path);
         std::stringstream buffer;
         buffer << file.rdbuf();
         m_text = buffer.str();
@@ -76,7 +83,7 @@ public:
         return out;
     }
 
-private:
+  private:
     std::string location(ptrdiff_t offset) const {
         int line = 1, column = 1;
         for (ptrdiff_t i = 0; i < offset && i < static_cast<ptrdiff_t>(m_text.size()); ++i) {
@@ -100,7 +107,8 @@ private:
         for (const pugi::xml_attribute& attr : node.attributes()) {
             bool ok = false;
             for (const char* name : allowed) ok |= std::strcmp(attr.name(), name) == 0;
-            if (!ok) failAt(node, "<%s> does not take the attribute \"%s\"", node.name(), attr.name());
+            if (!ok)
+                failAt(node, "<%s> does not take the attribute \"%s\"", node.name(), attr.name());
         }
         for (const char* name : allowed) {
             // "name" on objects and "type" on <scene> are optional; everything else is required.
@@ -141,7 +149,8 @@ private:
 
     std::vector<float> toFloats(const pugi::xml_node& node, const std::string& text) {
         std::vector<float> values;
-        for (absl::string_view token : absl::StrSplit(text, absl::ByAnyChar(", \t\r\n"), absl::SkipEmpty()))
+        for (absl::string_view token :
+             absl::StrSplit(text, absl::ByAnyChar(", \t\r\n"), absl::SkipEmpty()))
             values.push_back(toFloat(node, std::string(token)));
         return values;
     }
@@ -208,7 +217,8 @@ private:
                 m.block<3, 1>(0, 3) = origin;
                 return m;
             }
-            default: break;
+            default:
+                break;
         }
         return op.matrix();
     }
@@ -249,8 +259,7 @@ private:
         }
 
         std::shared_ptr<Object> object = ObjectFactory::create(kind, type, props);
-        if (object->kind() != kind)
-            failAt(node, "type \"%s\" is not a %s", type, node.name());
+        if (object->kind() != kind) failAt(node, "type \"%s\" is not a %s", type, node.name());
         for (auto& [child, name] : children) object->addChild(child, name);
         object->activate();
         for (const std::string& unused : props.unusedNames())
@@ -269,8 +278,10 @@ private:
                     failAt(op, "unexpected text inside <transform>");
                 auto it = kPropertyTags.find(op.name());
                 if (it == kPropertyTags.end() || it->second < Tag::Translate)
-                    failAt(op, "<%s> is not a transform operation (translate, scale, rotate, "
-                               "lookat, matrix)", op.name());
+                    failAt(op,
+                           "<%s> is not a transform operation (translate, scale, rotate, "
+                           "lookat, matrix)",
+                           op.name());
                 m = transformOp(op, it->second) * m;
             }
             if (!m.allFinite() || std::abs(m.determinant()) == 0.0f)
@@ -279,21 +290,35 @@ private:
             props.setTransform(attr(node, "name"), Transform(m));
             return;
         }
-        if (tag >= Tag::Translate)
-            failAt(node, "<%s> must be inside a <transform>", node.name());
+        if (tag >= Tag::Translate) failAt(node, "<%s> must be inside a <transform>", node.name());
         checkAttributes(node, {"name", "value"});
         std::string name = attr(node, "name"), value = attr(node, "value");
         failIfDuplicate(node, props);
         try {
             switch (tag) {
-                case Tag::Boolean: props.setBoolean(name, toBool(node, value)); break;
-                case Tag::Integer: props.setInteger(name, toInt(node, value)); break;
-                case Tag::Float: props.setFloat(name, toFloat(node, value)); break;
-                case Tag::String: props.setString(name, value); break;
-                case Tag::Point: props.setPoint(name, toVector3f(node, value)); break;
-                case Tag::Vector: props.setVector(name, toVector3f(node, value)); break;
-                case Tag::Color: props.setColor(name, toColor(node, value)); break;
-                default: break;
+                case Tag::Boolean:
+                    props.setBoolean(name, toBool(node, value));
+                    break;
+                case Tag::Integer:
+                    props.setInteger(name, toInt(node, value));
+                    break;
+                case Tag::Float:
+                    props.setFloat(name, toFloat(node, value));
+                    break;
+                case Tag::String:
+                    props.setString(name, value);
+                    break;
+                case Tag::Point:
+                    props.setPoint(name, toVector3f(node, value));
+                    break;
+                case Tag::Vector:
+                    props.setVector(name, toVector3f(node, value));
+                    break;
+                case Tag::Color:
+                    props.setColor(name, toColor(node, value));
+                    break;
+                default:
+                    break;
             }
         } catch (const Error& e) {
             // Re-anchor errors from the property list (e.g. duplicates) at this element.
@@ -318,7 +343,9 @@ private:
 
 }  // namespace
 
-ParseResult parseSceneFile(const std::string& path) { return Parser(path).parse(); }
+ParseResult parseSceneFile(const std::string& path) {
+    return Parser(path).parse();
+}
 
 std::shared_ptr<Scene> loadScene(const std::string& path) {
     ParseResult result = parseSceneFile(path);

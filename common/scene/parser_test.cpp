@@ -11,7 +11,7 @@ namespace alphorn {
 namespace {
 
 class ParserTest : public ::testing::Test {
-protected:
+  protected:
     std::string write(const std::string& name, const std::string& text) {
         std::filesystem::path path = m_dir / name;
         std::ofstream(path) << text;
@@ -42,7 +42,8 @@ protected:
     std::filesystem::path m_dir;
 };
 
-const char* kCamera = R"(<camera type="perspective"><integer name="width" value="8"/><integer name="height" value="6"/></camera>)";
+const char* kCamera =
+    R"(<camera type="perspective"><integer name="width" value="8"/><integer name="height" value="6"/></camera>)";
 
 std::string sceneWith(const std::string& body) {
     return std::string("<scene>\n<integrator type=\"normals\"/>\n") + kCamera + "\n" + body +
@@ -50,8 +51,10 @@ std::string sceneWith(const std::string& body) {
 }
 
 TEST_F(ParserTest, LoadsMinimalSceneWithNoriDefaults) {
-    std::string path = write("ok.xml", "<scene><integrator type=\"normals\"/><camera type=\"perspective\"/>"
-                                       "<mesh type=\"obj\"><string name=\"filename\" value=\"triangle.obj\"/></mesh></scene>");
+    std::string path = write(
+        "ok.xml",
+        "<scene><integrator type=\"normals\"/><camera type=\"perspective\"/>"
+        "<mesh type=\"obj\"><string name=\"filename\" value=\"triangle.obj\"/></mesh></scene>");
     ParseResult result = parseSceneFile(path);
     auto scene = std::static_pointer_cast<Scene>(result.root);
     EXPECT_EQ(scene->camera()->outputSize(), Vector2i(1280, 720));
@@ -66,7 +69,8 @@ TEST_F(ParserTest, LoadsMinimalSceneWithNoriDefaults) {
 TEST_F(ParserTest, TransformOperationsApplyInOrder) {
     // scale then translate: the vertex (1, 0, -1) goes to (2, 0, -2) then to (3, 0, -2).
     // (Faces list it third, so it is the third unique vertex.)
-    std::string path = write("t.xml", sceneWith(R"(<mesh type="obj"><string name="filename" value="triangle.obj"/>
+    std::string path =
+        write("t.xml", sceneWith(R"(<mesh type="obj"><string name="filename" value="triangle.obj"/>
         <transform name="toWorld"><scale value="2, 2, 2"/><translate value="1, 0, 0"/></transform></mesh>)"));
     auto scene = loadScene(path);
     const auto& p = scene->meshes()[0]->positions();
@@ -75,9 +79,11 @@ TEST_F(ParserTest, TransformOperationsApplyInOrder) {
 }
 
 TEST_F(ParserTest, RotateAndMatrixAgree) {
-    std::string a = write("a.xml", sceneWith(R"(<mesh type="obj"><string name="filename" value="triangle.obj"/>
+    std::string a =
+        write("a.xml", sceneWith(R"(<mesh type="obj"><string name="filename" value="triangle.obj"/>
         <transform name="toWorld"><rotate axis="0, 0, 1" angle="90"/></transform></mesh>)"));
-    std::string b = write("b.xml", sceneWith(R"(<mesh type="obj"><string name="filename" value="triangle.obj"/>
+    std::string b =
+        write("b.xml", sceneWith(R"(<mesh type="obj"><string name="filename" value="triangle.obj"/>
         <transform name="toWorld"><matrix value="0 -1 0 0  1 0 0 0  0 0 1 0  0 0 0 1"/></transform></mesh>)"));
     auto pa = loadScene(a)->meshes()[0]->positions();
     auto pb = loadScene(b)->meshes()[0]->positions();
@@ -87,19 +93,25 @@ TEST_F(ParserTest, RotateAndMatrixAgree) {
 TEST_F(ParserTest, ErrorsNameFileLineAndProblem) {
     expectError("<scene>\n<integrator type=\"normals\"/>\n<camera type=\"perspective\">\n",
                 {"bad.xml:", "malformed XML"});
-    expectError(sceneWith("<bsdf type=\"nosuchbsdf\"/>"), {"bad.xml:4:", "unknown bsdf type \"nosuchbsdf\""});
-    expectError(sceneWith("<mesh type=\"obj\"><string name=\"filename\" value=\"missing.obj\"/></mesh>"),
-                {"bad.xml:4:", "missing.obj"});
+    expectError(sceneWith("<bsdf type=\"nosuchbsdf\"/>"),
+                {"bad.xml:4:", "unknown bsdf type \"nosuchbsdf\""});
+    expectError(
+        sceneWith("<mesh type=\"obj\"><string name=\"filename\" value=\"missing.obj\"/></mesh>"),
+        {"bad.xml:4:", "missing.obj"});
     expectError("<scene>\n<integrator type=\"normals\"/>\n</scene>", {"bad.xml:1:", "no camera"});
     expectError(sceneWith("<mesh type=\"obj\"><string name=\"filename\" value=\"triangle.obj\"/>\n"
                           "<float name=\"x\" value=\"1\"/><float name=\"x\" value=\"2\"/></mesh>"),
                 {"bad.xml:", "more than once"});
-    expectError(sceneWith("<mesh type=\"obj\"><string name=\"filename\" value=\"triangle.obj\"/>"
-                          "<bsdf type=\"diffuse\"><color name=\"albedo\" value=\"-1, 0, 0\"/></bsdf></mesh>"),
-                {"bad.xml:4:", "albedo"});
-    expectError(sceneWith("<mesh type=\"obj\"><string name=\"filename\" value=\"triangle.obj\"/>"
-                          "<bsdf type=\"diffuse\"><color name=\"albedo\" value=\"nan, 0, 0\"/></bsdf></mesh>"),
-                {"bad.xml:4:", "albedo"});
+    expectError(
+        sceneWith(
+            "<mesh type=\"obj\"><string name=\"filename\" value=\"triangle.obj\"/>"
+            "<bsdf type=\"diffuse\"><color name=\"albedo\" value=\"-1, 0, 0\"/></bsdf></mesh>"),
+        {"bad.xml:4:", "albedo"});
+    expectError(
+        sceneWith(
+            "<mesh type=\"obj\"><string name=\"filename\" value=\"triangle.obj\"/>"
+            "<bsdf type=\"diffuse\"><color name=\"albedo\" value=\"nan, 0, 0\"/></bsdf></mesh>"),
+        {"bad.xml:4:", "albedo"});
     expectError(sceneWith("<float name=\"fov\" value=\"abc\"/>"), {"bad.xml:4:", "abc"});
     expectError(sceneWith("<transform name=\"t\"><rotate axis=\"0,0,0\" angle=\"3\"/></transform>"),
                 {"bad.xml:4:", "axis"});

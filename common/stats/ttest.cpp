@@ -3,6 +3,13 @@
 // luminance seen through the camera at uniformly random image positions -- or BSDFs -- the mean
 // sampling weight eval * cos / pdf for an incident direction at the listed `angles` in degrees,
 // i.e. the directional albedo.
+//
+// `passes` (scenes only, default 1) is for integrators whose samples share per-pass state, such
+// as a photon map: the samples of one pass are correlated through it, so a t-test over them
+// would understate the variance. With passes = P > 1 the samples are split into P equal
+// batches, batch b renders with its own pass data (preparePass with a seed of its own and pass
+// index b: a fresh photon map, and in progressive mode the radius of pass b), and the t-test
+// runs on the P independent batch means (P - 1 degrees of freedom).
 #include "common/bsdf/bsdf.h"
 #include "common/scene/scene.h"
 #include "common/stats/sidak.h"
@@ -38,6 +45,11 @@ class StudentsTTest : public StatisticalTest {
         m_references = parseFloatList(props, "references");
         m_sampleCount = props.getInteger("sampleCount", 100000);
         if (m_sampleCount < 2) props.fail("sampleCount must be at least 2, got %d", m_sampleCount);
+        m_passes = props.getInteger("passes", 1);
+        if (m_passes < 1) props.fail("passes must be at least 1, got %d", m_passes);
+        if (m_passes > 1 && m_sampleCount % m_passes != 0)
+            props.fail("sampleCount (%d) must be a multiple of passes (%d)", m_sampleCount,
+                       m_passes);
         PropertyList samplerProps(props.source() + " (test sampler)");
         m_sampler = std::static_pointer_cast<Sampler>(
             ObjectFactory::create(ObjectKind::Sampler, "independent", samplerProps));
@@ -70,6 +82,7 @@ class StudentsTTest : public StatisticalTest {
                 if (scene->camera()->outputSize().minCoeff() <= 0)
                     scene->fail("the camera has an empty image");
         } else if (!m_bsdfs.empty()) {
+            if (m_passes > 1) fail("\"passes\" applies to scenes only, not to BSDFs");
             // angles and references are parallel lists, one entry per test case; the BSDF
             // children take equal consecutive shares of them (Nori: one BSDF, every angle;
             // one angle per BSDF also works).
@@ -94,7 +107,11 @@ class StudentsTTest : public StatisticalTest {
             // One accumulator per chunk of kGrain samples, merged in chunk order below.
             std::vector<stats::RunningStats> chunks((m_sampleCount + kGrain - 1) / kGrain);
             std::string what;
-            if (!m_scenes.empty()) {
+            if (!m_scenes.empty() && m_passes > 1) {
+                const Scene& scene = *m_scenes[i];
+                what = absl::StrFormat("scene %s, means of %d passes", scene.source(), m_passes);
+                chunks = {sampleScenePasses(scene, static_cast<uint64_t>(i))};
+            } else if (!m_scenes.empty()) {
                 const Scene& scene = *m_scenes[i];
                 what = absl::StrFormat("scene %s", scene.source());
                 sampleScene(scene, static_cast<uint64_t>(i), chunks);
@@ -126,14 +143,16 @@ class StudentsTTest : public StatisticalTest {
     // Runs sampleOnce(sampler) for samples [0, m_sampleCount): sample k draws from its own
     // stream (seed, test case, k), and chunk c accumulates samples [c * kGrain, (c + 1) * kGrain),
     // so neither the thread count nor the scheduling can change a single bit.
+    // With `begin`, chunk c accumulates samples [begin + c * kGrain, ...) up to `end`.
     template <typename SampleOnce>
     void sampleChunks(uint64_t testCase, std::vector<stats::RunningStats>& chunks,
-                      SampleOnce&& sampleOnce) const {
+                      SampleOnce&& sampleOnce, size_t begin = 0, size_t end = 0) const {
+        if (end == 0) end = static_cast<size_t>(m_sampleCount);
         tbb::parallel_for(size_t{0}, chunks.size(), [&](size_t c) {
             std::unique_ptr<Sampler> sampler = m_sampler->clone();
-            const size_t end = std::min(static_cast<size_t>(m_sampleCount), (c + 1) * kGrain);
+            const size_t chunkEnd = std::min(end, begin + (c + 1) * kGrain);
             stats::RunningStats acc;
-            for (size_t k = c * kGrain; k < end; ++k) {
+            for (size_t k = begin + c * kGrain; k < chunkEnd; ++k) {
                 sampler->startStream(kTestSeed, testCase, k, StreamPurpose::Test);
                 acc.add(luminance(sampleOnce(*sampler)));
             }
@@ -159,6 +178,39 @@ class StudentsTTest : public StatisticalTest {
         });
     }
 
+    // Scene mode with `passes` batches: returns the statistics of the batch means. Batch b's
+    // pass data comes from a seed of its own (so that integrators whose state depends on the
+    // seed only, such as a non-progressive photon map, are independent between batches) and
+    // pass index b; its camera samples are samples [b * n, (b + 1) * n) of the test case.
+    stats::RunningStats sampleScenePasses(const Scene& scene, uint64_t testCase) const {
+        const Camera& camera = *scene.camera();
+        const Integrator& integrator = *scene.integrator();
+        const Vector2f size = camera.outputSize().cast<float>();
+        const size_t perPass = static_cast<size_t>(m_sampleCount / m_passes);
+        stats::RunningStats means;
+        for (int b = 0; b < m_passes; ++b) {
+            const uint64_t passSeed = mix64(kTestSeed ^ mix64(testCase * 0x10000 + uint64_t(b)));
+            const std::shared_ptr<const PassData> pass =
+                integrator.preparePass(scene, passSeed, static_cast<uint64_t>(b));
+            std::vector<stats::RunningStats> chunks((perPass + kGrain - 1) / kGrain);
+            sampleChunks(
+                testCase, chunks,
+                [&](Sampler& sampler) {
+                    const Point2f position = sampler.next2D().cwiseProduct(size);
+                    const Point2f aperture = sampler.next2D();
+                    Ray3f ray;
+                    Color3f value = camera.sampleRay(ray, position, aperture);
+                    if (!value.isBlack()) value *= integrator.Li(scene, sampler, ray, pass.get());
+                    return value;
+                },
+                b * perPass, (b + 1) * perPass);
+            stats::RunningStats batch;
+            for (const stats::RunningStats& chunk : chunks) batch.merge(chunk);
+            means.add(batch.mean);
+        }
+        return means;
+    }
+
     // Nori's BSDF mode: wi at `angle` from the normal (phi = 0); the sampling weight.
     void sampleBSDF(const BSDF& bsdf, float angle, uint64_t testCase,
                     std::vector<stats::RunningStats>& chunks) const {
@@ -171,6 +223,7 @@ class StudentsTTest : public StatisticalTest {
 
     float m_significanceLevel;
     int m_sampleCount;
+    int m_passes;
     std::vector<float> m_angles, m_references;
     std::vector<std::shared_ptr<BSDF>> m_bsdfs;
     std::vector<std::shared_ptr<Scene>> m_scenes;

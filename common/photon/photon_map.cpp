@@ -1,0 +1,21 @@
+#include "common/photon/photon_map.h"
+
+#include "common/core/error.h"
+
+namespace alphorn {
+
+PhotonMap::PhotonMap(std::vector<Photon> photons, Lookup lookup, float radius)
+    : m_photons(std::move(photons)), m_lookup(lookup) {
+    // The indexes point into m_photons' buffer, which a move of the map keeps in place.
+    if (lookup == Lookup::Radius)
+        m_grid = PhotonHashGrid(m_photons.data(), m_photons.size(), radius);
+    else
+        m_tree = PhotonKdTree(m_photons.data(), m_photons.size());
+}
+
+size_t PhotonMap::nearest(const Point3f& x, size_t k, float maxRadius, PhotonNeighbor* out) const {
+    if (m_lookup != Lookup::Nearest) fail("photon map: nearest() on a fixed-radius map");
+    return m_tree.nearest(x, k, maxRadius, out);
+}
+
+}  // namespace alphorn

@@ -1,0 +1,19 @@
+// What a photon-mapping integrator shares among all tiles of one pass: the pass's photon map(s)
+// and gather radius. Built once per pass by Integrator::preparePass() and read by every tile;
+// a pure function of (scene, seed, pass), so every worker that builds it gets the same bytes.
+#pragma once
+
+#include "common/integrator/integrator.h"
+#include "common/photon/photon_map.h"
+
+namespace alphorn {
+
+struct PhotonPassData : PassData {
+    PhotonMap surface;
+    // A volumetric photon mapper adds its volume map (and the beam estimate's index) here.
+    double powerScale = 0.0;  // 1 / photons emitted in the pass (64-bit count, in double)
+    uint64_t emitted = 0;
+    float surfaceRadius = 0.0f;  // the pass's gather radius, or the kNN search radius
+};
+
+}  // namespace alphorn

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Farm benchmarks (issue 3, item 7). Usage: bench/farm_bench.sh [BUILD_DIR] [SPP]
+# Farm benchmarks (issue 3, item 7). Usage: bench/farm_bench.sh [BUILD_DIR] [SPP, default 32]
 #  1. Farm overhead: the same job through `alphorn render --threads 1` and through a one-worker
 #     farm (`alphorn cluster --workers 1 --threads 1 --render`), alternating, best of two each.
 #     CPU time counts every process (client, coordinator, worker). Also checks the EXRs are equal.
@@ -7,7 +7,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build}
-spp=${2:-12}
+spp=${2:-32}
 work=$(mktemp -d /tmp/alphorn-farm-bench-XXXXXX)
 trap 'rm -rf "$work"' EXIT
 scene=scenes/cbox/cbox.xml

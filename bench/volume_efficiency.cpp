@@ -72,7 +72,8 @@ int main(int argc, char** argv) {
     std::vector<std::string> scenes;
     for (int i = 3; i < argc; ++i) scenes.push_back(argv[i]);
     if (scenes.empty())
-        for (const char* name : {"medium_sphere_chromatic", "medium_sphere_scatter", "spotlight_fog"})
+        for (const char* name :
+             {"medium_sphere_chromatic", "medium_sphere_scatter", "spotlight_fog"})
             scenes.push_back(std::string(ALPHORN_SOURCE_DIR) + "/scenes/seed/" + name + ".xml");
     if (passes < 2) {
         std::fprintf(stderr, "need at least 2 passes for a variance\n");

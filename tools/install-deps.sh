@@ -3,7 +3,7 @@
 # what is missing, so the README commands are cheap to repeat.
 set -euo pipefail
 PACKAGES=(
-  build-essential cmake ninja-build ccache pkg-config python3 openssl
+  build-essential cmake ninja-build ccache pkg-config python3 openssl git clang-format
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev
   libopenexr-dev libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev
   libembree-dev libtbb-dev libpugixml-dev libtinyobjloader-dev libpng-dev

@@ -15,7 +15,7 @@ enum class Measure { Unknown, SolidAngle, Discrete };
 struct BSDFQueryRecord {
     Vector3f wi;
     Vector3f wo = Vector3f::Zero();
-    float eta = 1.0f;        // relative index of refraction in the sampled direction
+    float eta = 1.0f;  // relative index of refraction in the sampled direction
     Measure measure = Measure::Unknown;
     Point2f uv = Point2f::Zero();  // surface uv, for textured parameters
     Point3f p = Point3f::Zero();   // world position, for 3D textures
@@ -26,7 +26,7 @@ struct BSDFQueryRecord {
 };
 
 class BSDF : public Object {
-public:
+  public:
     ObjectKind kind() const override { return ObjectKind::BSDF; }
 
     // Samples wo given wi; returns eval() * cos(theta_o) / pdf(), or 0 on failure.

@@ -11,7 +11,7 @@ namespace alphorn {
 class Medium;
 
 class Camera : public Object {
-public:
+  public:
     ObjectKind kind() const override { return ObjectKind::Camera; }
 
     // samplePosition is in pixels ([0, width] x [0, height]); returns the importance weight.
@@ -27,7 +27,7 @@ public:
     // Creates the default gaussian filter when none was given; derived classes call this.
     void activate() override;
 
-protected:
+  protected:
     Vector2i m_outputSize{1280, 720};
     std::shared_ptr<ReconstructionFilter> m_filter;
     std::shared_ptr<Medium> m_medium;

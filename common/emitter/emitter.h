@@ -14,7 +14,7 @@ class Mesh;
 struct EmitterQueryRecord {
     Point3f ref = Point3f::Zero();
     Point3f p = Point3f::Zero();
-    Normal3f n = Normal3f::Zero();  // emitter surface normal at p (zero for point-like lights)
+    Normal3f n = Normal3f::Zero();   // emitter surface normal at p (zero for point-like lights)
     Vector3f wi = Vector3f::Zero();  // unit direction from ref to p
     float pdf = 0.0f;                // solid-angle density at ref (1 for delta lights)
     Ray3f shadowRay;                 // from ref towards p, ending just before p
@@ -26,7 +26,7 @@ struct EmitterQueryRecord {
 };
 
 class Emitter : public Object {
-public:
+  public:
     ObjectKind kind() const override { return ObjectKind::Emitter; }
 
     // Samples a point on the emitter seen from rec.ref, fills p, n, wi, pdf and shadowRay and
@@ -49,7 +49,7 @@ public:
     virtual void setMesh(const Mesh* mesh) { m_mesh = mesh; }
     const Mesh* mesh() const { return m_mesh; }
 
-protected:
+  protected:
     const Mesh* m_mesh = nullptr;
 };
 

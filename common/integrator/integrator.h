@@ -18,7 +18,7 @@ struct PassData {
 };
 
 class Integrator : public Object {
-public:
+  public:
     ObjectKind kind() const override { return ObjectKind::Integrator; }
 
     // Once per scene, after loading.

@@ -43,7 +43,8 @@ void Mesh::addChild(const std::shared_ptr<Object>& child, const std::string& nam
             m_hasMediumInterface = true;
             break;
         }
-        default: Object::addChild(child, name);
+        default:
+            Object::addChild(child, name);
     }
 }
 

@@ -36,7 +36,7 @@ struct SurfaceSample {
 };
 
 class Mesh : public Object {
-public:
+  public:
     Mesh() = default;
     ObjectKind kind() const override { return ObjectKind::Mesh; }
 
@@ -78,7 +78,7 @@ public:
     const Medium* mediumTowards(const Intersection& its, const Vector3f& dir,
                                 const Medium* current) const;
 
-protected:
+  protected:
     // Called by loaders with the geometry; computes areas and the sampling table.
     void setGeometry(Eigen::Matrix<float, 3, Eigen::Dynamic> positions,
                      Eigen::Matrix<float, 3, Eigen::Dynamic> normals,
@@ -86,7 +86,7 @@ protected:
                      Eigen::Matrix<uint32_t, 3, Eigen::Dynamic> faces);
     std::string m_name;
 
-private:
+  private:
     Eigen::Matrix<float, 3, Eigen::Dynamic> m_positions;
     Eigen::Matrix<float, 3, Eigen::Dynamic> m_normals;  // empty when the file has none
     Eigen::Matrix<float, 2, Eigen::Dynamic> m_uvs;      // empty when the file has none

@@ -29,7 +29,8 @@ void Scene::addChild(const std::shared_ptr<Object>& child, const std::string& na
             if (m_sampler) child->fail("the scene has more than one sampler");
             m_sampler = std::static_pointer_cast<Sampler>(child);
             break;
-        default: Object::addChild(child, name);
+        default:
+            Object::addChild(child, name);
     }
 }
 

@@ -12,7 +12,7 @@
 namespace alphorn {
 
 class Scene : public Object {
-public:
+  public:
     explicit Scene(const PropertyList& props);
     ObjectKind kind() const override { return ObjectKind::Scene; }
 
@@ -21,7 +21,9 @@ public:
     std::string toString() const override;
 
     // Closest hit along the ray within [mint, maxt].
-    bool rayIntersect(const Ray3f& ray, Intersection& its) const { return m_accel.intersect(ray, its); }
+    bool rayIntersect(const Ray3f& ray, Intersection& its) const {
+        return m_accel.intersect(ray, its);
+    }
     // Any hit along the ray within [mint, maxt] (shadow rays).
     bool rayOccluded(const Ray3f& ray) const { return m_accel.occluded(ray); }
 
@@ -43,7 +45,7 @@ public:
     // Replaces the integrator (e.g. the statistical tests' or a job's override).
     void setIntegrator(std::shared_ptr<Integrator> integrator);
 
-private:
+  private:
     std::vector<std::shared_ptr<Mesh>> m_meshes;
     std::vector<std::shared_ptr<Emitter>> m_emitters;
     std::shared_ptr<Camera> m_camera;

@@ -98,6 +98,29 @@ void Mesh::fillIntersection(uint32_t triangle, float u, float v, Intersection& i
     } else {
         its.shFrame = its.geoFrame;
     }
+    if (m_uvs.cols() > 0) alignTangentWithU(i0, i1, i2, its.shFrame);
+}
+
+// Turns the shading frame about its normal so that its tangent s points along dp/du, and points
+// its bitangent t to the side of dp/dv: tangent-space data (normal maps: red along +u, green
+// along +v) then keeps its orientation relative to the texture on any mesh. Where the uv mapping
+// is mirrored (dp/du x dp/dv against the normal) this makes the frame left-handed, which every
+// use of a frame allows: it is only ever used through dot products and their inverse.
+// Triangles whose uvs are degenerate keep the arbitrary tangent.
+void Mesh::alignTangentWithU(uint32_t i0, uint32_t i1, uint32_t i2, Frame& frame) const {
+    const Vector2f duv02 = m_uvs.col(i0) - m_uvs.col(i2), duv12 = m_uvs.col(i1) - m_uvs.col(i2);
+    const float det = duv02.x() * duv12.y() - duv02.y() * duv12.x();
+    if (!(std::abs(det) > 1e-12f)) return;
+    const Vector3f dp02 = m_positions.col(i0) - m_positions.col(i2);
+    const Vector3f dp12 = m_positions.col(i1) - m_positions.col(i2);
+    const Vector3f dpdu = (duv12.y() * dp02 - duv02.y() * dp12) / det;
+    Vector3f s = dpdu - frame.n * frame.n.dot(dpdu);
+    const float length = s.norm();
+    if (!(length > 1e-12f) || !std::isfinite(length)) return;
+    s /= length;
+    const Vector3f dpdv = (duv02.x() * dp12 - duv12.x() * dp02) / det;
+    const Vector3f t = frame.n.cross(s);
+    frame = Frame(s, t.dot(dpdv) < 0.0f ? Vector3f(-t) : t, frame.n);
 }
 
 const Medium* Mesh::mediumTowards(const Intersection& its, const Vector3f& dir,

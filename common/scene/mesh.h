@@ -87,6 +87,8 @@ class Mesh : public Object {
     std::string m_name;
 
   private:
+    void alignTangentWithU(uint32_t i0, uint32_t i1, uint32_t i2, Frame& frame) const;
+
     Eigen::Matrix<float, 3, Eigen::Dynamic> m_positions;
     Eigen::Matrix<float, 3, Eigen::Dynamic> m_normals;  // empty when the file has none
     Eigen::Matrix<float, 2, Eigen::Dynamic> m_uvs;      // empty when the file has none

@@ -1,0 +1,105 @@
+#include "common/scene/mesh.h"
+
+#include "common/sampler/sampler.h"
+#include "common/scene/parser.h"
+#include "common/scene/scene.h"
+
+#include <absl/strings/str_format.h>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+namespace alphorn {
+namespace {
+
+// A scene from XML text, written to a temporary file and loaded.
+std::shared_ptr<Scene> sceneFrom(const std::string& xml) {
+    const std::filesystem::path path = std::filesystem::temp_directory_path() /
+                                       ("alphorn_mesh_test_" + std::to_string(::getpid()) + ".xml");
+    std::ofstream(path) << xml;
+    auto scene = loadScene(path.string());
+    std::filesystem::remove(path);
+    return scene;
+}
+
+std::string meshFile(const std::string& mesh) {
+    return std::string(ALPHORN_SOURCE_DIR) + "/scenes/meshes/" + mesh;
+}
+
+// A scene holding one of the repository's meshes.
+std::shared_ptr<Scene> sceneWithMesh(const std::string& mesh, const std::string& transform = "") {
+    return sceneFrom(R"(<scene><integrator type="normals"/>
+<camera type="perspective"><integer name="width" value="4"/><integer name="height" value="4"/></camera>
+<mesh type="obj"><string name="filename" value=")" +
+                     meshFile(mesh) + R"("/>)" + transform + "</mesh></scene>");
+}
+
+Intersection hit(const Scene& scene, const Point3f& origin, const Vector3f& direction) {
+    Intersection its;
+    EXPECT_TRUE(scene.rayIntersect(Ray3f(origin, direction), its));
+    return its;
+}
+
+// The shading tangent follows dp/du and the bitangent the side of dp/dv, so tangent-space data
+// (normal maps) keeps its orientation relative to the texture. quad.obj maps u to +x and v to +z
+// under a +y normal: a mirrored mapping, so the bitangent is +z rather than n x s = -z.
+TEST(MeshTangents, FollowTheUvDirectionsOnAPlane) {
+    auto scene = sceneWithMesh("quad.obj");
+    const Intersection its = hit(*scene, Point3f(0.3f, 1.0f, 0.2f), Vector3f(0, -1, 0));
+    EXPECT_NEAR(its.shFrame.n.y(), 1.0f, 1e-6f);
+    EXPECT_NEAR(its.shFrame.s.x(), 1.0f, 1e-6f);
+    EXPECT_NEAR(its.shFrame.t.z(), 1.0f, 1e-6f);
+    // Rotated about the normal by 90 degrees, the tangent turns with the mesh.
+    auto rotated = sceneWithMesh(
+        "quad.obj", R"(<transform name="toWorld"><rotate axis="0, 1, 0" angle="90"/></transform>)");
+    const Intersection r = hit(*rotated, Point3f(0.3f, 1.0f, 0.2f), Vector3f(0, -1, 0));
+    EXPECT_NEAR(std::abs(r.shFrame.s.z()), 1.0f, 1e-6f);
+    EXPECT_NEAR(r.shFrame.s.dot(its.shFrame.s), 0.0f, 1e-6f);
+    // Local coordinates still invert: the frame is orthonormal.
+    const Vector3f d = Vector3f(0.3f, -0.5f, 0.8f).normalized();
+    EXPECT_LT((its.toWorld(its.toLocal(d)) - d).norm(), 1e-6f);
+}
+
+// On the sphere u is the longitude (phi from +x towards +z): at (1, 0, 0) dp/du points along +z,
+// and v (up the sphere) along +y.
+TEST(MeshTangents, FollowTheUvDirectionsOnACurvedMesh) {
+    auto scene = sceneWithMesh("sphere.obj");
+    const Intersection its = hit(*scene, Point3f(3.0f, 0.01f, 0.01f), Vector3f(-1, 0, 0));
+    EXPECT_GT(its.shFrame.n.x(), 0.99f);
+    EXPECT_GT(its.shFrame.s.z(), 0.99f);
+    EXPECT_GT(its.shFrame.t.y(), 0.99f);
+    EXPECT_NEAR(its.shFrame.s.dot(its.shFrame.n), 0.0f, 1e-5f);
+    EXPECT_NEAR(its.shFrame.t.dot(its.shFrame.n), 0.0f, 1e-5f);
+}
+
+// End to end: a normal map whose normals lean towards +v (green above 0.5) lights a plate more
+// from a light on the +v side (+z for quad.obj) than from the mirrored light on the -v side.
+TEST(MeshTangents, NormalMapGreenLeansTowardsPlusV) {
+    auto radianceWithLightAt = [](float z) {
+        auto scene = sceneFrom(absl::StrFormat(R"(<scene><integrator type="direct_ems"/>
+<camera type="perspective"><float name="fov" value="1e-3"/>
+  <integer name="width" value="1"/><integer name="height" value="1"/>
+  <transform name="toWorld"><lookat origin="0, 2, 0" target="0, 0, 0" up="0, 0, 1"/></transform>
+</camera>
+<emitter type="point"><point name="position" value="0, 1, %g"/><color name="power" value="10"/></emitter>
+<mesh type="obj"><string name="filename" value="%s"/>
+  <bsdf type="normalmap"><bsdf type="diffuse"/>
+    <texture type="constant" name="normalmap"><color name="value" value="0.5, 0.8, 0.9"/></texture>
+  </bsdf>
+</mesh></scene>)",
+                                               z, meshFile("quad.obj")));
+        auto sampler = scene->sampler()->clone();
+        sampler->startStream(1, 0, 0, StreamPurpose::Test);
+        return scene->integrator()
+            ->Li(*scene, *sampler, Ray3f(Point3f(0, 2, 0), Vector3f(0, -1, 0)), nullptr)
+            .r();
+    };
+    const float towardsV = radianceWithLightAt(1.0f), awayFromV = radianceWithLightAt(-1.0f);
+    EXPECT_GT(awayFromV, 0.0f);
+    EXPECT_GT(towardsV, 1.5f * awayFromV);
+}
+
+}  // namespace
+}  // namespace alphorn

@@ -1,0 +1,63 @@
+#include "common/integrator/path.h"
+
+#include "common/integrator/direct.h"
+
+namespace alphorn {
+
+int maxDepthProperty(const PropertyList& props) {
+    const int maxDepth = props.getInteger("maxDepth", -1);
+    if (maxDepth < -1) props.fail("\"maxDepth\" must be -1 (unlimited) or >= 0");
+    return maxDepth;
+}
+
+Color3f tracePath(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay, int maxDepth,
+                  DirectLight strategy) {
+    Color3f result(0.0f), throughput(1.0f);
+    float etaScale = 1.0f;
+    // Density of the BSDF sample that produced `ray`; negative for the camera ray and for delta
+    // bounces, whose emission hits emitter sampling cannot produce.
+    float bsdfPdf = -1.0f;
+    Ray3f ray = cameraRay;
+    for (int depth = 0;; ++depth) {
+        Intersection its;
+        if (!scene.rayIntersect(ray, its)) break;
+        const Vector3f dir = ray.d.normalized();
+        const Color3f le = emittedRadiance(ray.o, dir, its);
+        if (!le.isBlack()) {
+            float w = 1.0f;
+            if (bsdfPdf >= 0.0f && strategy == DirectLight::EmitterSampling)
+                w = 0.0f;
+            else if (bsdfPdf >= 0.0f && strategy == DirectLight::MIS)
+                w = balanceHeuristic(bsdfPdf, emitterSamplingPdf(scene, ray.o, dir, its));
+            result += throughput * le * w;
+        }
+        if (maxDepth >= 0 && depth >= maxDepth) break;
+
+        if (depth >= 3) {
+            const float q = std::min(throughput.maxCoeff() * etaScale, 0.99f);
+            if (sampler.next1D() >= q) break;
+            throughput /= q;
+        }
+
+        const BSDF& bsdf = *its.mesh->bsdf();
+        const Vector3f wi = its.toLocal(-dir);
+        if (strategy != DirectLight::BSDFSampling && bsdf.isDiffuse())
+            result += throughput *
+                      sampleDirect(scene, sampler, its, bsdf, wi, strategy == DirectLight::MIS);
+
+        BSDFQueryRecord bRec = makeBSDFQuery(its, wi);
+        const Color3f weight = bsdf.sample(bRec, sampler.next2D());
+        if (weight.isBlack() || !weight.allFinite()) break;
+        // Only MIS needs the density itself; the others only ask whether the bounce was delta.
+        if (bRec.measure == Measure::Discrete)
+            bsdfPdf = -1.0f;
+        else
+            bsdfPdf = strategy == DirectLight::MIS ? bsdf.pdf(bRec) : 0.0f;
+        throughput *= weight;
+        etaScale *= bRec.eta * bRec.eta;
+        ray = Ray3f(its.p, its.toWorld(bRec.wo));
+    }
+    return result;
+}
+
+}  // namespace alphorn

@@ -64,8 +64,8 @@ TracedPhotons tracePhotons(const Scene& scene, uint64_t seed, uint64_t pass, uin
     tbb::parallel_for(uint64_t(0), chunks, [&](uint64_t c) {
         std::unique_ptr<Sampler> sampler = scene.sampler()->clone();
         std::vector<Photon>& out = stored[c];
-        out.reserve(2 * kChunk);
         const uint64_t end = std::min(count, (c + 1) * kChunk);
+        out.reserve(2 * (end - c * kChunk));  // most paths store one or two photons
         for (uint64_t i = c * kChunk; i < end; ++i) {
             sampler->startStream(seed, pass, i, StreamPurpose::Photon);
             tracePhoton(scene, *sampler, out);

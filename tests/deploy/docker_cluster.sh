@@ -2,8 +2,9 @@
 # deploy/ for real: starts a Docker engine of its own, builds deploy/Dockerfile, brings up
 # deploy/docker-compose.yml (a coordinator and workers, with the host-networking override),
 # submits a scene from the host with the CLI, and checks the EXR is byte-identical to a local
-# `alphorn render`. Also: the containers' health checks report healthy, `--scale worker=3`
-# adds workers, and a new coordinator container finds the finished job in the named volume.
+# `alphorn render`. Also: the containers' health checks report healthy, the daemons run as
+# UID 10001 under docker-init, `--scale worker=3` adds workers, a killed worker's container is
+# restarted, and a new coordinator container finds the finished job in the named volume.
 #
 # Exit 77 (ctest: skipped) with one line saying why when no Docker engine can be started here
 # (not root, no apt-get, dockerd refuses to run). Under CI (CI=true: root, apt, a fresh
@@ -84,8 +85,9 @@ cleanup() {
         for log in "$WORK"/*.log; do [[ -f $log ]] && { echo "== $log"; tail -n 30 "$log"; }; done
     fi
     [[ -n $WORK ]] && rm -rf "$WORK"
-    if [[ -n $RUN_DIR ]]; then
-        # dockerd leaves its default network namespace mounted under exec-root.
+    if [[ $RUN_DIR == /tmp/alphorn-dockerd-?* ]]; then
+        # dockerd leaves its default network namespace mounted under exec-root (and only mounts
+        # under this very directory may be touched, hence the pattern above).
         awk -v dir="$RUN_DIR/" 'index($2, dir) == 1 { print $2 }' /proc/mounts | sort -r |
             while read -r mount; do umount "$mount" || true; done
         rm -rf "$RUN_DIR" || status=1
@@ -119,6 +121,7 @@ fi
 mkdir -p "$DOCKER_ROOT"
 exec 9>"$DOCKER_ROOT.lock"
 flock -w 900 9 || fail "another run has held $DOCKER_ROOT.lock for 15 minutes"
+((SECONDS - phase_start < 2)) || phase "waited for another run to release $DOCKER_ROOT.lock"
 # exec-root holds containerd's sockets: a short path stays under the unix socket length limit.
 RUN_DIR=$(mktemp -d /tmp/alphorn-dockerd-XXXXXX)
 dockerd --data-root "$DOCKER_ROOT" --exec-root "$RUN_DIR/exec" --pidfile "$RUN_DIR/dockerd.pid" \

@@ -16,12 +16,12 @@
 // distribution over that grid (with a small uniform floor so no lit direction has density 0).
 #include "common/core/dpdf.h"
 #include "common/core/frame.h"
-#include "common/emitter/emitter.h"
+#include "common/emitter/delta_light.h"
 #include "common/texture/texture.h"
 
 namespace alphorn {
 
-class ProjectorLight : public Emitter {
+class ProjectorLight : public DeltaPositionLight {
   public:
     explicit ProjectorLight(const PropertyList& props) {
         m_power = props.getNonNegativeColor("power", Color3f(1.0f));
@@ -90,7 +90,7 @@ class ProjectorLight : public Emitter {
     }
 
     // Intensity (W/sr) towards the world direction `d` (unit); zero outside or behind.
-    Color3f intensity(const Vector3f& d) const {
+    Color3f intensity(const Vector3f& d) const override {
         const Vector3f local = m_frame.toLocal(d);
         if (!(local.z() > 0.0f)) return Color3f(0.0f);
         const float x = local.x() / local.z(), y = local.y() / local.z();
@@ -99,20 +99,6 @@ class ProjectorLight : public Emitter {
         return m_scale * textureAt(uv);
     }
 
-    Color3f sample(EmitterQueryRecord& rec, const Point2f&) const override {
-        rec = EmitterQueryRecord(rec.ref, m_position, Normal3f::Zero());
-        const float dist2 = (m_position - rec.ref).squaredNorm();
-        if (!(dist2 > 0.0f) || rec.wi.isZero()) {
-            rec.pdf = 0.0f;
-            return Color3f(0.0f);
-        }
-        rec.pdf = 1.0f;  // delta position: the sample is certain
-        const Color3f result = intensity(-rec.wi) / dist2;
-        return result.isValid() ? result : Color3f(0.0f);
-    }
-
-    Color3f eval(const EmitterQueryRecord&) const override { return Color3f(0.0f); }
-    float pdf(const EmitterQueryRecord&) const override { return 0.0f; }
     Color3f power() const override { return m_totalPower; }
 
     Color3f samplePhoton(Ray3f& ray, const Point2f&, const Point2f& sample) const override {
@@ -130,7 +116,6 @@ class ProjectorLight : public Emitter {
         return flux.isValid() ? flux : Color3f(0.0f);
     }
 
-    bool isDelta() const override { return true; }
     std::string toString() const override { return "projector, power " + m_power.toString(); }
 
   private:
@@ -149,7 +134,6 @@ class ProjectorLight : public Emitter {
         return m_texture->eval(uv, p).max(0.0f);
     }
 
-    Point3f m_position;
     Frame m_frame;
     Color3f m_power, m_scale, m_totalPower;
     float m_tanX, m_tanY;

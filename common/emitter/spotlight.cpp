@@ -11,11 +11,11 @@
 // space). Integrating over the sphere, the flux of central intensity I is
 // 2 pi I [(1 - cos ts) + (cos ts - cos tt) / 5], so I = power / that bracket (VALIDATION.md).
 #include "common/core/frame.h"
-#include "common/emitter/emitter.h"
+#include "common/emitter/delta_light.h"
 
 namespace alphorn {
 
-class SpotLight : public Emitter {
+class SpotLight : public DeltaPositionLight {
   public:
     explicit SpotLight(const PropertyList& props) {
         if (!props.has("power")) props.fail("a spotlight needs a \"power\" colour (total flux)");
@@ -53,22 +53,10 @@ class SpotLight : public Emitter {
     }
 
     // Intensity (W/sr) towards the world direction `d` (unit).
-    Color3f intensity(const Vector3f& d) const { return m_intensity * falloff(m_frame.n.dot(d)); }
-
-    Color3f sample(EmitterQueryRecord& rec, const Point2f&) const override {
-        rec = EmitterQueryRecord(rec.ref, m_position, Normal3f::Zero());
-        const float dist2 = (m_position - rec.ref).squaredNorm();
-        if (!(dist2 > 0.0f) || rec.wi.isZero()) {
-            rec.pdf = 0.0f;
-            return Color3f(0.0f);
-        }
-        rec.pdf = 1.0f;  // delta position: the sample is certain
-        const Color3f result = intensity(-rec.wi) / dist2;
-        return result.isValid() ? result : Color3f(0.0f);
+    Color3f intensity(const Vector3f& d) const override {
+        return m_intensity * falloff(m_frame.n.dot(d));
     }
 
-    Color3f eval(const EmitterQueryRecord&) const override { return Color3f(0.0f); }
-    float pdf(const EmitterQueryRecord&) const override { return 0.0f; }
     Color3f power() const override { return m_power; }
 
     // Samples directions exactly in proportion to the intensity: cos theta is drawn from the
@@ -94,11 +82,9 @@ class SpotLight : public Emitter {
         return m_power;
     }
 
-    bool isDelta() const override { return true; }
     std::string toString() const override { return "spotlight, power " + m_power.toString(); }
 
   private:
-    Point3f m_position;
     Frame m_frame;
     Color3f m_power, m_intensity;
     float m_cosTotal, m_cosStart;

@@ -19,13 +19,22 @@ int exitCodeFor(const v1::JobStatus& status) {
     return status.state() == v1::JOB_STATE_DONE ? kExitOk : kExitJobFailed;
 }
 
+// How many times each pass's per-pass data (photon maps) was built, once the whole job was
+// rendered in this coordinator process (1.00: never traced twice).
+std::string duplication(const v1::JobStatus& s) {
+    if (s.state() != v1::JOB_STATE_DONE || s.units_restored() != 0 || s.settings().passes() == 0)
+        return "";
+    return absl::StrFormat("  pass data built %.2fx",
+                           double(s.pass_data_builds()) / s.settings().passes());
+}
+
 void printStatusLine(const v1::JobStatus& s) {
-    std::cout << absl::StrFormat("%-6u %-10s %-20s %9s  %13s passes  %13s units  prio %d%s%s\n",
+    std::cout << absl::StrFormat("%-6u %-10s %-20s %9s  %13s passes  %13s units  prio %d%s%s%s\n",
                                  s.job_id(), farm::jobStateName(s.state()), s.settings().name(),
                                  absl::StrFormat("%ux%u", s.width(), s.height()),
                                  absl::StrFormat("%u/%u", s.passes_done(), s.settings().passes()),
                                  absl::StrFormat("%u/%u", s.units_done(), s.units_total()),
-                                 s.settings().priority(),
+                                 s.settings().priority(), duplication(s),
                                  s.error().empty() ? "" : "  error: ", s.error());
 }
 

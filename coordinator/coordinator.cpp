@@ -337,6 +337,7 @@ v1::JobStatus Coordinator::statusLocked(const Job& job) const {
     status.set_attempts_failed(job.attemptsFailed);
     status.set_checkpoints_written(job.checkpointsWritten);
     status.set_units_leased_this_run(job.leasedThisRun);
+    status.set_pass_data_builds(job.passDataBuilds);
     status.set_invalid_samples(job.film.invalidSamples);
     status.set_elapsed_seconds(wallSeconds() - job.createdAt);
     double rate = 0.0;
@@ -504,8 +505,9 @@ v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId, Clock::time_poin
                 best = job.get();
         }
         if (best) {
-            const uint32_t index = *best->pending.begin();
-            best->pending.erase(best->pending.begin());
+            const uint32_t index = pickUnitLocked(*best, workerId);
+            best->pending.erase(index);
+            worker->lastChunk[best->id] = best->grid.chunkOf(index);
             UnitSlot& slot = best->units[index];
             slot.state = UnitState::Leased;
             slot.leaseId = m_nextLeaseId++;
@@ -528,6 +530,36 @@ v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId, Clock::time_poin
             return response;
         }
     }
+}
+
+// Locality: a worker keeps the per-pass data (photon maps) of the passes it rendered last, so
+// it gets another tile of the same pass chunk when one is pending; otherwise the first unit
+// of a chunk no other live worker is on, so each chunk's photons are traced by one worker;
+// only when every pending unit's chunk is taken does it share one (the end of a job).
+uint32_t Coordinator::pickUnitLocked(const Job& job, uint64_t workerId) const {
+    const farm::JobGrid& grid = job.grid;
+    const auto firstOfChunk = [&](uint32_t chunk) {
+        auto it = job.pending.lower_bound(chunk * grid.tileCount());
+        return it != job.pending.end() && grid.chunkOf(*it) == chunk ? it : job.pending.end();
+    };
+    std::set<uint32_t> taken;
+    const auto recent = Clock::now() - std::chrono::duration_cast<Clock::duration>(
+                                           std::chrono::duration<double>(m_options.leaseSeconds));
+    for (const auto& [id, worker] : m_workers) {
+        auto chunk = worker.lastChunk.find(job.id);
+        if (chunk == worker.lastChunk.end()) continue;
+        if (id == workerId) {
+            if (auto it = firstOfChunk(chunk->second); it != job.pending.end()) return *it;
+        } else if (worker.lastSeen >= recent) {
+            taken.insert(chunk->second);
+        }
+    }
+    for (auto it = job.pending.begin(); it != job.pending.end();) {
+        const uint32_t chunk = grid.chunkOf(*it);
+        if (!taken.count(chunk)) return *it;
+        it = job.pending.lower_bound((chunk + 1) * grid.tileCount());
+    }
+    return *job.pending.begin();
 }
 
 v1::HeartbeatResponse Coordinator::heartbeat(const v1::HeartbeatRequest& request) {
@@ -742,6 +774,7 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
         ++job.mergedCount;
         ++job.mergedThisRun;
         if (!job.firstMergeAt) job.firstMergeAt = Clock::now();
+        if (header.built_pass_data()) job.passDataBuilds += unit.passEnd - unit.passBegin;
         job.samplesMergedThisRun +=
             uint64_t(unit.tile.width()) * unit.tile.height() * (unit.passEnd - unit.passBegin);
         if (auto worker = m_workers.find(header.worker_id()); worker != m_workers.end())

@@ -111,18 +111,23 @@ class Coordinator {
         double createdAt = 0;
         std::optional<std::chrono::steady_clock::time_point> firstMergeAt;
         uint64_t samplesMergedThisRun = 0;
-        std::mutex checkpointMutex;  // serializes this job's checkpoint writes
+        uint64_t passDataBuilds = 0;  // see JobStatus.pass_data_builds
+        std::mutex checkpointMutex;   // serializes this job's checkpoint writes
     };
     struct WorkerRecord {
         v1::WorkerInfo info;
         std::chrono::steady_clock::time_point lastSeen;
         std::set<uint64_t> leases;
+        // The pass chunk of each job this worker last leased: it holds that chunk's pass data.
+        std::map<uint64_t, uint32_t> lastChunk;
     };
     struct LeaseRef {
         uint64_t jobId;
         uint32_t unitIndex;
     };
 
+    // The pending unit of `job` to lease to `workerId` next (job.pending must not be empty).
+    uint32_t pickUnitLocked(const Job& job, uint64_t workerId) const;
     void resume();
     void backgroundLoop();
     void expireLeases();

@@ -215,10 +215,11 @@ Worker::JobContext& Worker::prepareJob(const v1::JobDescription& job) {
 
 const std::vector<std::shared_ptr<const PassData>>& Worker::passDataFor(JobContext& context,
                                                                         uint32_t begin,
-                                                                        uint32_t end) {
+                                                                        uint32_t end, bool& built) {
     const auto key = std::make_pair(begin, end);
     auto it = context.passes.find(key);
-    if (it != context.passes.end()) return it->second;
+    built = it == context.passes.end();
+    if (!built) return it->second;
     // Units of the same passes usually follow each other (all tiles of a chunk come first);
     // keep a few ranges so photon maps are built once per range, but never grow without bound.
     while (context.passes.size() >= 4) context.passes.erase(context.passes.begin());
@@ -237,7 +238,9 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
     try {
         JobContext& job = prepareJob(lease.job());
         const RenderUnit unit = farm::fromProto(lease.unit());
-        const auto& passData = passDataFor(job, unit.passBegin, unit.passEnd);
+        bool built = false;
+        const auto& passData = passDataFor(job, unit.passBegin, unit.passEnd, built);
+        header.set_built_pass_data(built);
         FilmBlock block = makeUnitBlock(*job.scene, unit.tile);
         const auto start = std::chrono::steady_clock::now();
         const bool complete =

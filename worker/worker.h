@@ -61,8 +61,10 @@ class Worker {
     void registerWithCoordinator();
     void heartbeatLoop();
     JobContext& prepareJob(const v1::JobDescription& job);
+    // The per-pass data of passes [begin, end), built or reused; `built` says which.
     const std::vector<std::shared_ptr<const PassData>>& passDataFor(JobContext& context,
-                                                                    uint32_t begin, uint32_t end);
+                                                                    uint32_t begin, uint32_t end,
+                                                                    bool& built);
     std::optional<Result> renderLease(const v1::AcquireWorkResponse& lease);
     // Delivers until the coordinator answers (merged, discarded or refused) or the lease is
     // fenced; keeps the result through outages. Returns false when it had to give up (draining).

@@ -16,6 +16,12 @@ render_local "$SCENES/farm_photon.xml" "$WORK/local.exr" --seed 9 --passes 8
     -o "$WORK/farm.exr" 2>"$WORK/submit1.log" || fail "submit failed: $(cat "$WORK/submit1.log")"
 cmp "$WORK/local.exr" "$WORK/farm.exr" || fail "the farm EXR differs from alphorn render"
 pass "progressive photon mapping: farm EXR byte-identical to alphorn render (2 passes per unit)"
+# Locality: each worker keeps to its own pass chunks, so each pass's photons are traced about
+# once (without it both workers take alternate tiles of every chunk: exactly 2x).
+builds=$(job_field 1 pass_data_builds)
+[[ -n $builds ]] && ((builds >= 8 && builds <= 12)) ||
+    fail "photon passes traced $builds times for 8 passes (expected 8..12: duplication <= 1.5)"
+pass "photon passes traced $builds times for 8 passes on 2 workers (duplication $(awk -v b="$builds" 'BEGIN{printf "%.2f", b/8}'))"
 
 job=$("$ALPHORN" submit "$SCENES/farm_photon.xml" --seed 9 --passes 8 --tile 32 2>/dev/null)
 units_done() { (($(job_field "$job" units_done) >= 6)); }

@@ -29,14 +29,13 @@ namespace {
 // The caustic and the sphere's shadow in scenes/caustic/caustic.xml (384 x 288).
 const Tile kCrop{224, 160, 352, 256};
 
+// The crop's pixel values, as the film resolves them for an image.
 std::vector<double> resolve(const FilmBlock& block) {
+    const Image image = resolveImage(block, kCrop.x1, kCrop.y1);
     std::vector<double> rgb;
     for (int y = kCrop.y0; y < kCrop.y1; ++y)
-        for (int x = kCrop.x0; x < kCrop.x1; ++x) {
-            const PixelSum& s = block.at(x, y);
-            const double w = fromFixedPoint(s.weight);
-            for (int c = 0; c < 3; ++c) rgb.push_back(w > 0 ? fromFixedPoint(s.rgb[c]) / w : 0.0);
-        }
+        for (int x = kCrop.x0; x < kCrop.x1; ++x)
+            for (int c = 0; c < 3; ++c) rgb.push_back(image.get(x, y)[c]);
     return rgb;
 }
 

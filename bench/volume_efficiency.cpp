@@ -42,13 +42,10 @@ Figures measure(const std::string& path, const std::string& integrator, uint32_t
         auto data = preparePasses(*scene, 1, pass, pass + 1);
         renderUnit(*scene, 1, RenderUnit{pass, pass + 1, tile}, data, block);
         seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        const Image image = resolveImage(block, tile.x1, tile.y1);
         for (int y = tile.y0; y < tile.y1; ++y)
             for (int x = tile.x0; x < tile.x1; ++x) {
-                const PixelSum& s = block.at(x, y);
-                const double w = fromFixedPoint(s.weight);
-                double v = 0;
-                if (w > 0)
-                    for (int c = 0; c < 3; ++c) v += fromFixedPoint(s.rgb[c]) / w / 3.0;
+                const double v = image.get(x, y).mean();
                 const size_t i = size_t(y - tile.y0) * tile.width() + (x - tile.x0);
                 sum[i] += v;
                 sum2[i] += v * v;

@@ -7,6 +7,8 @@
 #include "common/core/rng.h"
 #include "common/core/warp.h"
 
+#include "common/stats/student_t.h"
+
 #include <gtest/gtest.h>
 
 namespace alphorn {
@@ -39,22 +41,6 @@ double fresnelReference(double thetaI, double n1, double n2) {
 bool equal(const Color3f& a, const Color3f& b) {
     return (a == b).all();
 }
-
-// Mean and standard error of a sample, accumulated in double.
-struct Stats {
-    double sum = 0.0, sum2 = 0.0;
-    int n = 0;
-    void add(double x) {
-        sum += x;
-        sum2 += x * x;
-        ++n;
-    }
-    double mean() const { return sum / n; }
-    double stderror() const {
-        const double m = mean();
-        return std::sqrt(std::max(0.0, sum2 / n - m * m) / (n - 1));
-    }
-};
 
 TEST(Fresnel, NormalIncidenceMatchesClosedForm) {
     const float n1 = 1.000277f, n2 = 1.5046f;
@@ -258,7 +244,7 @@ TEST(Microfacet, PdfIntegratesToSuccessProbability) {
     for (float deg : {10.0f, 45.0f, 75.0f}) {
         const Vector3f wi = directionAt(deg);
         Rng rng(13, 0, 0, StreamPurpose::Test);
-        Stats integral;
+        stats::RunningStats integral;
         const int n = 400000;
         for (int i = 0; i < n; ++i) {
             const Vector3f wo =
@@ -272,8 +258,8 @@ TEST(Microfacet, PdfIntegratesToSuccessProbability) {
             if (!bsdf->sample(rec, Point2f(rng.nextFloat(), rng.nextFloat())).isBlack()) ++success;
         }
         const double p = success / double(m);
-        const double sigma = std::hypot(integral.stderror(), std::sqrt(p * (1 - p) / m));
-        EXPECT_NEAR(integral.mean(), p, 5.0 * sigma + 1e-6) << deg;
+        const double sigma = std::hypot(integral.standardError(), std::sqrt(p * (1 - p) / m));
+        EXPECT_NEAR(integral.mean, p, 5.0 * sigma + 1e-6) << deg;
         EXPECT_LE(p, 1.0);
     }
 }
@@ -290,27 +276,27 @@ TEST(Microfacet, AlbedoAtMostOneAndSmoothLimitIsFresnel) {
         auto bsdf = makeBSDF("microfacet", microfacetProps(c.alpha, c.kd));
         for (float deg : {0.0f, 30.0f, 60.0f, 80.0f, 89.0f}) {
             Rng rng(17, 0, 0, StreamPurpose::Test);
-            Stats albedo;
+            stats::RunningStats albedo;
             for (int i = 0; i < 100000; ++i) {
                 BSDFQueryRecord rec(directionAt(deg));
                 const Color3f w = bsdf->sample(rec, Point2f(rng.nextFloat(), rng.nextFloat()));
                 ASSERT_TRUE(w.allFinite());
                 albedo.add(w.maxCoeff());
             }
-            EXPECT_LE(albedo.mean(), 1.0 + 5.0 * albedo.stderror()) << c.alpha << " " << deg;
+            EXPECT_LE(albedo.mean, 1.0 + 5.0 * albedo.standardError()) << c.alpha << " " << deg;
         }
     }
     // alpha = 0.01, kd = 0: nearly a smooth dielectric reflector, albedo ~ F(theta).
     auto smooth = makeBSDF("microfacet", microfacetProps(0.01f, Color3f(0.0f)));
     for (float deg : {0.0f, 30.0f, 60.0f, 75.0f}) {
         Rng rng(19, 0, 0, StreamPurpose::Test);
-        Stats albedo;
+        stats::RunningStats albedo;
         for (int i = 0; i < 20000; ++i) {
             BSDFQueryRecord rec(directionAt(deg));
             albedo.add(smooth->sample(rec, Point2f(rng.nextFloat(), rng.nextFloat())).r());
         }
         const double F = fresnelReference(degToRad(deg), 1.000277, 1.5046);
-        EXPECT_NEAR(albedo.mean(), F, 0.02 * F + 5.0 * albedo.stderror()) << deg;
+        EXPECT_NEAR(albedo.mean, F, 0.02 * F + 5.0 * albedo.standardError()) << deg;
     }
 }
 

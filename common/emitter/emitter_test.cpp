@@ -5,25 +5,12 @@
 #include "common/core/rng.h"
 #include "common/scene/mesh.h"
 
+#include "common/stats/student_t.h"
+
 #include <gtest/gtest.h>
 
 namespace alphorn {
 namespace {
-
-struct Stats {
-    double sum = 0.0, sum2 = 0.0;
-    int n = 0;
-    void add(double x) {
-        sum += x;
-        sum2 += x * x;
-        ++n;
-    }
-    double mean() const { return sum / n; }
-    double stderror() const {
-        const double m = mean();
-        return std::sqrt(std::max(0.0, sum2 / n - m * m) / (n - 1));
-    }
-};
 
 // The quad [-1, 1]^2 in the xz plane at y = 0 with normal +y, carrying an area light.
 std::shared_ptr<Mesh> makeQuadLight(const Color3f& radiance) {
@@ -66,7 +53,7 @@ TEST(AreaLight, SampleAndPdfAgreeAndIntegrateTheSolidAngle) {
     const Emitter& light = *mesh->emitter();
     const Point3f ref(0.3f, 1.5f, -0.2f);
     Rng rng(3, 0, 0, StreamPurpose::Test);
-    Stats estimate;
+    stats::RunningStats estimate;
     for (int i = 0; i < 200000; ++i) {
         EmitterQueryRecord rec(ref);
         const Color3f value = light.sample(rec, Point2f(rng.nextFloat(), rng.nextFloat()));
@@ -83,8 +70,8 @@ TEST(AreaLight, SampleAndPdfAgreeAndIntegrateTheSolidAngle) {
         estimate.add(value.g());
     }
     const double omega = rectangleSolidAngle(-1, 1, -1, 1, 0.3, 1.5, -0.2);
-    EXPECT_NEAR(estimate.mean(), 1.0 * omega, 5.0 * estimate.stderror());
-    EXPECT_GT(estimate.stderror(), 0.0);
+    EXPECT_NEAR(estimate.mean, 1.0 * omega, 5.0 * estimate.standardError());
+    EXPECT_GT(estimate.standardError(), 0.0);
 }
 
 TEST(AreaLight, IsOneSided) {
@@ -127,7 +114,7 @@ TEST(AreaLight, PowerIsPiAreaRadianceAndPhotonsAreCosineDistributed) {
     // Area 4: Phi = pi * 4 * L.
     EXPECT_NEAR(light.power().g(), Pi * 4.0f * 2.0f, 1e-4f);
     Rng rng(21, 0, 0, StreamPurpose::Test);
-    Stats flux, cosine, x;
+    stats::RunningStats flux, cosine, x;
     for (int i = 0; i < 100000; ++i) {
         Ray3f ray;
         const Color3f phi = light.samplePhoton(ray, Point2f(rng.nextFloat(), rng.nextFloat()),
@@ -140,9 +127,9 @@ TEST(AreaLight, PowerIsPiAreaRadianceAndPhotonsAreCosineDistributed) {
     }
     // Photon fluxes average to the power; a cosine (Lambertian) emitter has E[cos] = 2/3;
     // positions are uniform over [-1, 1], so E[x] = 0.
-    EXPECT_NEAR(flux.mean(), light.power().g(), 5.0 * flux.stderror() + 1e-4);
-    EXPECT_NEAR(cosine.mean(), 2.0 / 3.0, 5.0 * cosine.stderror());
-    EXPECT_NEAR(x.mean(), 0.0, 5.0 * x.stderror());
+    EXPECT_NEAR(flux.mean, light.power().g(), 5.0 * flux.standardError() + 1e-4);
+    EXPECT_NEAR(cosine.mean, 2.0 / 3.0, 5.0 * cosine.standardError());
+    EXPECT_NEAR(x.mean, 0.0, 5.0 * x.standardError());
 }
 
 TEST(AreaLight, RejectsMissingRadiance) {
@@ -171,7 +158,7 @@ TEST(PointLight, PhotonsCarryThePowerUniformly) {
     auto light = makePointLight(Point3f(0.0f, 1.0f, 0.0f), Color3f(5.0f, 6.0f, 7.0f));
     EXPECT_EQ(light->power().b(), 7.0f);
     Rng rng(23, 0, 0, StreamPurpose::Test);
-    Stats flux, dx, dy, dz, z2;
+    stats::RunningStats flux, dx, dy, dz, z2;
     for (int i = 0; i < 100000; ++i) {
         Ray3f ray;
         const Color3f phi = light->samplePhoton(ray, Point2f(rng.nextFloat(), rng.nextFloat()),
@@ -184,12 +171,12 @@ TEST(PointLight, PhotonsCarryThePowerUniformly) {
         dz.add(ray.d.z());
         z2.add(ray.d.z() * ray.d.z());
     }
-    EXPECT_NEAR(flux.mean(), 7.0, 5.0 * flux.stderror() + 1e-5);
+    EXPECT_NEAR(flux.mean, 7.0, 5.0 * flux.standardError() + 1e-5);
     // Uniform on the sphere: zero mean direction and E[z^2] = 1/3.
-    EXPECT_NEAR(dx.mean(), 0.0, 5.0 * dx.stderror());
-    EXPECT_NEAR(dy.mean(), 0.0, 5.0 * dy.stderror());
-    EXPECT_NEAR(dz.mean(), 0.0, 5.0 * dz.stderror());
-    EXPECT_NEAR(z2.mean(), 1.0 / 3.0, 5.0 * z2.stderror());
+    EXPECT_NEAR(dx.mean, 0.0, 5.0 * dx.standardError());
+    EXPECT_NEAR(dy.mean, 0.0, 5.0 * dy.standardError());
+    EXPECT_NEAR(dz.mean, 0.0, 5.0 * dz.standardError());
+    EXPECT_NEAR(z2.mean, 1.0 / 3.0, 5.0 * z2.standardError());
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 // hypothesis::students_t_test), with the hole that lets NaN pass closed.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <string>
 
@@ -48,6 +49,10 @@ struct RunningStats {
     }
     void merge(const RunningStats& other);
     double variance() const { return count > 1 ? m2 / static_cast<double>(count - 1) : 0.0; }
+    // Standard error of the mean.
+    double standardError() const {
+        return count > 1 ? std::sqrt(variance() / static_cast<double>(count)) : 0.0;
+    }
 };
 
 }  // namespace alphorn::stats

@@ -7,13 +7,36 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <filesystem>
 #include <fstream>
 
 namespace alphorn::plugin_testing {
 
-// Writes `text` to a file in the test temp directory and returns its path.
+// A directory private to this test process, removed at exit. ctest runs every test case as its
+// own process in parallel, so a shared name such as /tmp/texture.xml would be written by one
+// case while another parses it.
+inline const std::filesystem::path& processTempDir() {
+    struct OwnedDir {
+        std::filesystem::path path;
+        OwnedDir()
+            : path(std::filesystem::path(::testing::TempDir()) /
+                   ("alphorn-plugin-test-" + std::to_string(::getpid()))) {
+            std::filesystem::create_directories(path);
+        }
+        ~OwnedDir() {
+            std::error_code ignored;
+            std::filesystem::remove_all(path, ignored);
+        }
+    };
+    static const OwnedDir dir;
+    return dir.path;
+}
+
+// Writes `text` to a file in this process's temp directory and returns its path.
 inline std::string writeTempFile(const std::string& name, const std::string& text) {
-    const std::string path = ::testing::TempDir() + name;
+    const std::string path = (processTempDir() / name).string();
     std::ofstream(path) << text;
     return path;
 }

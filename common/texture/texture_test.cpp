@@ -160,7 +160,7 @@ TEST(Texture, BitmapEXRLookupOrientationAndWrap) {
     Image image(3, 2);
     for (int y = 0; y < 2; ++y)
         for (int x = 0; x < 3; ++x) image.set(x, y, Color3f(float(x), float(y), 0.5f));
-    const std::string path = ::testing::TempDir() + "bitmap_test.exr";
+    const std::string path = (plugin_testing::processTempDir() / "bitmap_test.exr").string();
     writeEXR(path, image);
     auto make = [&](const std::string& wrap) {
         return tex(absl::StrFormat(R"(<texture type="bitmap"><string name="filename" value="%s"/>
@@ -193,7 +193,7 @@ TEST(Texture, BitmapPNGDecodesSRGBUnlessRaw) {
     Image image(2, 1);
     image.set(0, 0, Color3f(0.2f, 0.5f, 1.0f));
     image.set(1, 0, Color3f(0.0f, 0.05f, 0.7f));
-    const std::string path = ::testing::TempDir() + "bitmap_test.png";
+    const std::string path = (plugin_testing::processTempDir() / "bitmap_test.png").string();
     writePNG(path, image);
     auto srgb = tex(absl::StrFormat(
         R"(<texture type="bitmap"><string name="filename" value="%s"/></texture>)", path));

@@ -131,9 +131,12 @@ v1::JobStatus FarmClient::watch(uint64_t jobId, bool quiet) {
                                                           status.settings().passes());
             progress->update(
                 status.passes_done(),
-                absl::StrFormat("%.2f Msamples/s  %u workers  %u/%u units",
+                absl::StrFormat("%.2f Msamples/s  %u workers  %u/%u units%s",
                                 status.samples_per_second() * 1e-6, status.active_workers(),
-                                status.units_done(), status.units_total()));
+                                status.units_done(), status.units_total(),
+                                status.has_photon_radius()
+                                    ? absl::StrFormat("  radius %.4g", status.photon_radius())
+                                    : ""));
         }
         grpc::Status finished = reader->Finish();
         if (finished.ok() && last.state() != v1::JOB_STATE_RUNNING &&

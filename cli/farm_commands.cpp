@@ -29,13 +29,14 @@ std::string duplication(const v1::JobStatus& s) {
 }
 
 void printStatusLine(const v1::JobStatus& s) {
-    std::cout << absl::StrFormat("%-6u %-10s %-20s %9s  %13s passes  %13s units  prio %d%s%s%s\n",
-                                 s.job_id(), farm::jobStateName(s.state()), s.settings().name(),
-                                 absl::StrFormat("%ux%u", s.width(), s.height()),
-                                 absl::StrFormat("%u/%u", s.passes_done(), s.settings().passes()),
-                                 absl::StrFormat("%u/%u", s.units_done(), s.units_total()),
-                                 s.settings().priority(), duplication(s),
-                                 s.error().empty() ? "" : "  error: ", s.error());
+    std::cout << absl::StrFormat(
+        "%-6u %-10s %-20s %9s  %13s passes  %13s units  prio %d%s%s%s%s\n", s.job_id(),
+        farm::jobStateName(s.state()), s.settings().name(),
+        absl::StrFormat("%ux%u", s.width(), s.height()),
+        absl::StrFormat("%u/%u", s.passes_done(), s.settings().passes()),
+        absl::StrFormat("%u/%u", s.units_done(), s.units_total()), s.settings().priority(),
+        s.has_photon_radius() ? absl::StrFormat("  photon radius %.4g", s.photon_radius()) : "",
+        duplication(s), s.error().empty() ? "" : "  error: ", s.error());
 }
 
 }  // namespace

@@ -2,6 +2,8 @@
 #include "cli/commands.h"
 #include "cli/progress.h"
 
+#include "common/integrator/integrator.h"
+#include "common/photon/radius_schedule.h"
 #include "common/render/image_io.h"
 #include "common/render/local_render.h"
 #include "common/scene/parser.h"
@@ -56,13 +58,20 @@ static int runRender(const RenderOptions& options) {
         std::filesystem::create_directories(parent);
 
     ProgressLine progress("render", settings.passes);
+    const std::optional<RadiusSchedule> radiusSchedule = scene->integrator()->radiusSchedule();
     auto start = std::chrono::steady_clock::now();
     FilmBlock film = renderLocal(*scene, settings, [&](const RenderStatus& status) {
         double seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        progress.update(
-            status.passesDone,
-            absl::StrFormat("%.2f Mrays/s", seconds > 0 ? status.rays / seconds * 1e-6 : 0.0));
+        std::string radius;
+        if (radiusSchedule)
+            radius = absl::StrFormat(
+                "  radius %.4g",
+                reportedProgressiveRadius(radiusSchedule->initialRadius, radiusSchedule->alpha,
+                                          status.passesDone));
+        progress.update(status.passesDone,
+                        absl::StrFormat("%.2f Mrays/s%s",
+                                        seconds > 0 ? status.rays / seconds * 1e-6 : 0.0, radius));
     });
     double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

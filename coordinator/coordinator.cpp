@@ -6,6 +6,8 @@
 #include "common/farm/job_scene.h"
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
+#include "common/integrator/integrator.h"
+#include "common/photon/radius_schedule.h"
 #include "common/scene/scene.h"
 #include "coordinator/checkpoint.h"
 #include "coordinator/log.h"
@@ -250,6 +252,7 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
             std::max<uint64_t>(m_options.defaultPassesPerUnit, std::min(bySamples, byPreview))));
     }
     if (settings.name().empty()) settings.set_name(fs::path(bundle.scenePath).stem().string());
+    const std::optional<RadiusSchedule> radiusSchedule = scene->integrator()->radiusSchedule();
     const int filterBorder = -makeUnitBlock(*scene, Tile{0, 0, 1, 1}).x0();
     scene.reset();
     auto refuse = [&](Kind kind, const std::string& message) {
@@ -276,6 +279,11 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     auto job = std::make_unique<Job>();
     job->description.mutable_bundle()->CopyFrom(request.bundle());
     job->description.mutable_settings()->CopyFrom(settings);
+    if (radiusSchedule) {
+        v1::PhotonRadiusSchedule& schedule = *job->description.mutable_photon_radius_schedule();
+        schedule.set_initial_radius(radiusSchedule->initialRadius);
+        schedule.set_alpha(radiusSchedule->alpha);
+    }
     job->createdAt = wallSeconds();
     const auto rows = m_db.query(
         "INSERT INTO jobs(description, state, width, height, filter_border, created_at) VALUES(?, "
@@ -330,7 +338,13 @@ v1::JobStatus Coordinator::statusLocked(const Job& job) const {
         }
     status.set_units_leased(leased);
     status.set_active_workers(static_cast<uint32_t>(workers.size()));
-    status.set_passes_done(job.grid.passesComplete(job.merged));
+    const uint32_t passesDone = job.grid.passesComplete(job.merged);
+    status.set_passes_done(passesDone);
+    const v1::PhotonRadiusSchedule& schedule = job.description.photon_radius_schedule();
+    if (job.description.has_photon_radius_schedule() && isValidRadiusAlpha(schedule.alpha())) {
+        status.set_photon_radius(
+            reportedProgressiveRadius(schedule.initial_radius(), schedule.alpha(), passesDone));
+    }
     status.set_units_restored(job.restored);
     status.set_units_merged_this_run(job.mergedThisRun);
     status.set_results_discarded(job.discarded);

@@ -14,8 +14,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 namespace alphorn::coordinator {
 namespace {
@@ -158,6 +160,7 @@ TEST_F(CoordinatorJob, ReverseOrderDuplicatesAndRestartGiveTheLocalFilm) {
         jobId = submitted.job_id();
         const uint32_t total = submitted.units_total();
         EXPECT_EQ(total, 3u * 6u);  // 3 passes x (3 x 2 tiles of 16 px)
+        EXPECT_FALSE(submitted.has_photon_radius()) << "a normals job has no photon radius";
         v1::RegisterRequest registration;
         registration.set_name("test");
         const uint64_t worker = coordinator.registerWorker(registration);
@@ -207,6 +210,66 @@ TEST_F(CoordinatorJob, ReverseOrderDuplicatesAndRestartGiveTheLocalFilm) {
     EXPECT_EQ(status.state(), v1::JOB_STATE_DONE);
     EXPECT_EQ(status.units_merged_this_run() + status.units_restored(), status.units_total());
     EXPECT_EQ(coordinator.snapshot(jobId, false).film.serialize(), expected);
+}
+
+// The progress report's photon radius comes from the job's scene through the shared schedule:
+// pass 0's radius until a pass is complete, then the last complete pass's, also after a restart.
+// The expected radii follow the Knaus-Zwicker recurrence r²(N + 1) = r²(N) (N + α) / (N + 1),
+// not the closed form the coordinator uses.
+TEST_F(CoordinatorJob, ReportsThePhotonRadiusOfTheLastCompletePass) {
+    std::ofstream(m_dir / "scene/s.xml") << R"(<scene>
+  <integrator type="photonmapper">
+    <integer name="photonCount" value="200"/>
+    <float name="surfacePhotonRadius" value="0.25"/>
+    <boolean name="progressive" value="true"/>
+    <float name="alpha" value="0.7"/>
+  </integrator>
+  <camera type="perspective">
+    <transform name="toWorld"><lookat origin="3, 2, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <integer name="width" value="40"/><integer name="height" value="30"/>
+  </camera>
+  <mesh type="obj"><string name="filename" value="sphere.obj"/></mesh>
+  <emitter type="point">
+    <point name="position" value="0, 3, 0"/><color name="power" value="10, 10, 10"/>
+  </emitter>
+</scene>)";
+    const double alpha = 0.7f;  // the scene's float, as the integrator holds it
+    std::vector<double> expected{0.25};
+    for (int n = 1; n < 3; ++n)
+        expected.push_back(expected.back() * std::sqrt((n + alpha) / (n + 1)));
+
+    uint64_t jobId = 0;
+    {
+        Coordinator coordinator(m_options);
+        v1::JobStatus status = coordinator.submit(upload(coordinator));
+        jobId = status.job_id();
+        ASSERT_TRUE(status.has_photon_radius());
+        EXPECT_EQ(status.photon_radius(), expected[0]);
+        const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+        std::set<uint32_t> passesSeen;
+        for (;;) {
+            const v1::AcquireWorkResponse lease =
+                coordinator.acquire(worker, std::chrono::steady_clock::now());
+            if (!lease.has_work()) break;
+            std::string compressed;
+            const v1::ResultChunk header = render(lease, worker, compressed);
+            ASSERT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
+            status = coordinator.listJobs(jobId).at(0);
+            const uint32_t done = status.passes_done();
+            passesSeen.insert(done);
+            ASSERT_TRUE(status.has_photon_radius());
+            EXPECT_NEAR(status.photon_radius(), expected[done > 0 ? done - 1 : 0],
+                        1e-12 * expected[0])
+                << done << " passes done";
+        }
+        EXPECT_EQ(passesSeen, (std::set<uint32_t>{0, 1, 2, 3}));
+        EXPECT_EQ(status.state(), v1::JOB_STATE_DONE);
+        coordinator.stop();
+    }
+    Coordinator restarted(m_options);
+    const v1::JobStatus status = restarted.listJobs(jobId).at(0);
+    ASSERT_TRUE(status.has_photon_radius()) << "the schedule is persisted with the job";
+    EXPECT_NEAR(status.photon_radius(), expected[2], 1e-12 * expected[0]);
 }
 
 TEST_F(CoordinatorJob, BrokenSceneIsRefusedWithFileAndLine) {

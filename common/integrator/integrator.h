@@ -7,6 +7,8 @@
 #include "common/core/object.h"
 #include "common/core/ray.h"
 
+#include <optional>
+
 namespace alphorn {
 
 class Scene;
@@ -15,6 +17,13 @@ class Sampler;
 // Per-pass state shared by all tiles of one pass (e.g. that pass's photon maps and radius).
 struct PassData {
     virtual ~PassData() = default;
+};
+
+// A progressive photon mapper's shrinking gather radius: pass i (0-based) gathers within
+// progressiveRadius(initialRadius, alpha, i) of common/photon/radius_schedule.h.
+struct RadiusSchedule {
+    double initialRadius = 0.0;
+    double alpha = 0.0;
 };
 
 class Integrator : public Object {
@@ -28,6 +37,9 @@ class Integrator : public Object {
                                                         uint64_t /*pass*/) const {
         return nullptr;
     }
+    // The radius schedule of an integrator whose gather radius shrinks pass by pass, valid after
+    // preprocess(); progress reports show the current radius. Empty for every other integrator.
+    virtual std::optional<RadiusSchedule> radiusSchedule() const { return std::nullopt; }
     // Radiance along `ray`; `pass` is what preparePass returned for the current pass.
     virtual Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,
                        const PassData* pass) const = 0;

@@ -74,7 +74,9 @@ class PhotonMapper : public Integrator {
     std::shared_ptr<const PassData> preparePass(const Scene& scene, uint64_t seed,
                                                 uint64_t pass) const override {
         if (m_progressive) {
-            const float radius = static_cast<float>(progressiveRadius(m_radius, m_alpha, pass));
+            const RadiusSchedule schedule = *radiusSchedule();
+            const float radius =
+                static_cast<float>(progressiveRadius(schedule.initialRadius, schedule.alpha, pass));
             return trace(scene, seed, pass, radius);
         }
         // One photon map for all passes of a seed: build it once, whoever asks first.
@@ -86,6 +88,11 @@ class PhotonMapper : public Integrator {
             m_cachedScene = &scene;
         }
         return m_cached;
+    }
+
+    std::optional<RadiusSchedule> radiusSchedule() const override {
+        if (!m_progressive) return std::nullopt;
+        return RadiusSchedule{m_radius, m_alpha};
     }
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,

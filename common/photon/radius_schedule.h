@@ -56,4 +56,10 @@ inline double progressiveRadius(double initialRadius, double alpha, uint64_t pas
     return initialRadius * std::sqrt(progressiveRadiusSquaredRatio(pass + 1, alpha));
 }
 
+// The radius a progress report shows after `passesDone` complete passes: that of the last
+// complete pass (the smallest in the image so far), or pass 0's before any is complete.
+inline double reportedProgressiveRadius(double initialRadius, double alpha, uint64_t passesDone) {
+    return progressiveRadius(initialRadius, alpha, passesDone > 0 ? passesDone - 1 : 0);
+}
+
 }  // namespace alphorn

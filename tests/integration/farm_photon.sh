@@ -23,6 +23,16 @@ builds=$(job_field 1 pass_data_builds)
     fail "photon passes traced $builds times for 8 passes (expected 8..12: duplication <= 1.5)"
 pass "photon passes traced $builds times for 8 passes on 2 workers (duplication $(awk -v b="$builds" 'BEGIN{printf "%.2f", b/8}'))"
 
+# The progress report's radius: after 8 passes, that of pass 8 of the Knaus-Zwicker recurrence
+# r^2(N + 1) = r^2(N) (N + alpha) / (N + 1) from the scene's r(1) = 0.15 and default alpha 0.5
+# (a float 0.15 in the scene: agreement to 1e-6, far below a one-pass error of ~6%).
+radius=$(job_field 1 photon_radius)
+expected=$(awk 'BEGIN { r2 = 0.15 * 0.15; for (n = 1; n < 8; n++) r2 *= (n + 0.5) / (n + 1); printf "%.12g", sqrt(r2) }')
+awk -v r="$radius" -v e="$expected" 'BEGIN { d = r - e; exit !(r != "" && d * d < 1e-12 * e * e) }' ||
+    fail "status reports photon radius '$radius' after 8 passes, the schedule gives $expected"
+"$ALPHORN" status 1 | grep -q "photon radius" || fail "'alphorn status' does not show the photon radius"
+pass "status reports photon radius $radius after 8 passes (schedule: $expected)"
+
 job=$("$ALPHORN" submit "$SCENES/farm_photon.xml" --seed 9 --passes 8 --tile 32 2>/dev/null)
 units_done() { (($(job_field "$job" units_done) >= 6)); }
 wait_until 60 units_done

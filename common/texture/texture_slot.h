@@ -10,13 +10,19 @@
 
 #include "common/texture/texture.h"
 
+#include <string>
+#include <type_traits>
+
 namespace alphorn {
 
-class TexturedColor {
+// A parameter of type T (Color3f or float) that may be textured. A float reads a texture as
+// the mean of its three channels (a grey texture gives its grey level).
+template <typename T>
+class TexturedParameter {
   public:
-    TexturedColor() = default;
-    TexturedColor(const PropertyList& props, const std::string& name, const Color3f& defaultValue)
-        : m_name(name), m_value(props.getColor(name, defaultValue)), m_given(props.has(name)) {}
+    TexturedParameter() = default;
+    TexturedParameter(const PropertyList& props, const std::string& name, const T& defaultValue)
+        : m_name(name), m_value(read(props, name, defaultValue)), m_given(props.has(name)) {}
 
     // Takes `child` when it is a texture named like this parameter; returns whether it did.
     bool addChild(const std::shared_ptr<Object>& child, const std::string& name,
@@ -29,58 +35,45 @@ class TexturedColor {
         return true;
     }
 
-    Color3f eval(const Point2f& uv, const Point3f& p) const {
-        return m_texture ? m_texture->eval(uv, p) : m_value;
+    T eval(const Point2f& uv, const Point3f& p) const {
+        return m_texture ? fromColor(m_texture->eval(uv, p)) : m_value;
     }
     bool isTextured() const { return m_texture != nullptr; }
     const Texture* texture() const { return m_texture.get(); }
-    Color3f lowerBound() const { return m_texture ? m_texture->lowerBound() : m_value; }
-    Color3f upperBound() const { return m_texture ? m_texture->upperBound() : m_value; }
+    // The plain value (valid when not textured), for validation in constructors.
+    const T& value() const { return m_value; }
+    T lowerBound() const { return m_texture ? fromColor(m_texture->lowerBound()) : m_value; }
+    T upperBound() const { return m_texture ? fromColor(m_texture->upperBound()) : m_value; }
     const std::string& name() const { return m_name; }
     std::string toString() const {
-        return m_texture ? "texture " + m_texture->toString() : m_value.toString();
+        if (m_texture) return "texture " + m_texture->toString();
+        if constexpr (std::is_same_v<T, float>)
+            return std::to_string(m_value);
+        else
+            return m_value.toString();
     }
 
   private:
+    static T read(const PropertyList& props, const std::string& name, const T& defaultValue) {
+        if constexpr (std::is_same_v<T, float>)
+            return props.getFloat(name, defaultValue);
+        else
+            return props.getColor(name, defaultValue);
+    }
+    static T fromColor(const Color3f& color) {
+        if constexpr (std::is_same_v<T, float>)
+            return color.mean();
+        else
+            return color;
+    }
+
     std::string m_name;
-    Color3f m_value;
+    T m_value{};
     bool m_given = false;
     std::shared_ptr<Texture> m_texture;
 };
 
-// A float parameter that may be textured: a texture's value is the mean of its three channels
-// (a grey texture gives its grey level).
-class TexturedFloat {
-  public:
-    TexturedFloat() = default;
-    TexturedFloat(const PropertyList& props, const std::string& name, float defaultValue)
-        : m_name(name), m_value(props.getFloat(name, defaultValue)), m_given(props.has(name)) {}
-
-    bool addChild(const std::shared_ptr<Object>& child, const std::string& name,
-                  const Object& owner) {
-        if (child->kind() != ObjectKind::Texture || name != m_name) return false;
-        if (m_given) owner.fail("\"%s\" is given both as a value and as a nested texture", m_name);
-        if (m_texture) owner.fail("more than one texture for \"%s\"", m_name);
-        m_texture = std::static_pointer_cast<Texture>(child);
-        m_texture->setParameterName(m_name);
-        return true;
-    }
-
-    float eval(const Point2f& uv, const Point3f& p) const {
-        return m_texture ? m_texture->eval(uv, p).mean() : m_value;
-    }
-    bool isTextured() const { return m_texture != nullptr; }
-    // The plain value (valid when not textured), for validation in constructors.
-    float value() const { return m_value; }
-    float lowerBound() const { return m_texture ? m_texture->lowerBound().mean() : m_value; }
-    float upperBound() const { return m_texture ? m_texture->upperBound().mean() : m_value; }
-    const std::string& name() const { return m_name; }
-
-  private:
-    std::string m_name;
-    float m_value = 0.0f;
-    bool m_given = false;
-    std::shared_ptr<Texture> m_texture;
-};
+using TexturedColor = TexturedParameter<Color3f>;
+using TexturedFloat = TexturedParameter<float>;
 
 }  // namespace alphorn

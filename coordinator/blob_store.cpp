@@ -36,6 +36,27 @@ uint64_t BlobStore::size(const std::string& sha256) const {
     return bytes;
 }
 
+std::vector<BlobStore::StoredBlob> BlobStore::list() const {
+    std::vector<StoredBlob> blobs;
+    for (const auto& prefix : fs::directory_iterator(m_directory)) {
+        const std::string name = prefix.path().filename().string();
+        if (!prefix.is_directory() || name.size() != 2) continue;  // e.g. "incoming"
+        for (const auto& file : fs::directory_iterator(prefix.path())) {
+            const std::string sha = file.path().filename().string();
+            if (!file.is_regular_file() || !farm::isSha256Hex(sha)) continue;
+            const auto modified = std::chrono::file_clock::to_sys(file.last_write_time());
+            blobs.push_back({sha, file.file_size(),
+                             std::chrono::duration<double>(modified.time_since_epoch()).count()});
+        }
+    }
+    return blobs;
+}
+
+void BlobStore::remove(const std::string& sha256) {
+    std::error_code ignored;
+    fs::remove(pathOf(sha256), ignored);
+}
+
 BlobStore::Upload::Upload(const BlobStore& store, std::string claimedSha256)
     : m_store(store), m_claimed(std::move(claimedSha256)) {
     if (!farm::isSha256Hex(m_claimed)) fail("\"%s\" is not a lowercase hex SHA-256", m_claimed);

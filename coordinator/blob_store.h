@@ -9,6 +9,7 @@
 #include <fstream>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace alphorn::coordinator {
 
@@ -21,6 +22,16 @@ class BlobStore {
     uint64_t size(const std::string& sha256) const;
     std::string pathOf(const std::string& sha256) const;
     uint64_t maxBlobBytes() const { return m_maxBlobBytes; }
+
+    struct StoredBlob {
+        std::string sha256;
+        uint64_t size = 0;
+        double storedAt = 0;  // seconds since the epoch (the file's modification time)
+    };
+    // Every stored blob, read from the directory (uploads in progress are not listed).
+    std::vector<StoredBlob> list() const;
+    // Deletes a stored blob; absent is not an error.
+    void remove(const std::string& sha256);
 
     // One upload in progress. Throws Error on too many bytes; commit() throws on a hash mismatch.
     class Upload {

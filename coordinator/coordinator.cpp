@@ -75,7 +75,7 @@ void Coordinator::resume() {
         m_workers[worker.info.worker_id()] = std::move(worker);
     }
     for (const auto& row : m_db.query("SELECT id, description, state, error, width, height, "
-                                      "filter_border, created_at FROM jobs")) {
+                                      "filter_border, created_at, finished_at FROM jobs")) {
         auto job = std::make_unique<Job>();
         job->id = StateDatabase::integer(row[0]);
         job->description.ParseFromString(StateDatabase::text(row[1]));
@@ -85,6 +85,7 @@ void Coordinator::resume() {
         const int height = static_cast<int>(StateDatabase::integer(row[5]));
         job->filterBorder = static_cast<int>(StateDatabase::integer(row[6]));
         job->createdAt = std::get<double>(row[7]);
+        if (const double* finishedAt = std::get_if<double>(&row[8])) job->finishedAt = *finishedAt;
         const v1::JobSettings& settings = job->description.settings();
         job->grid = farm::JobGrid(width, height, int(settings.tile_size()), settings.passes(),
                                   settings.passes_per_unit());
@@ -172,12 +173,21 @@ void Coordinator::backgroundLoop() {
     auto nextCheckpoint =
         Clock::now() + std::chrono::duration_cast<Clock::duration>(
                            std::chrono::duration<double>(m_options.checkpointIntervalSeconds));
+    auto nextPrune = Clock::now() + std::chrono::seconds(1);
     std::unique_lock lock(m_mutex);
     while (!m_stopping) {
         m_backgroundWake.wait_for(lock, std::chrono::milliseconds(200));
         if (m_stopping) break;
         lock.unlock();
         expireLeases();
+        if (Clock::now() >= nextPrune) {
+            try {
+                pruneFinishedJobs(wallSeconds());
+            } catch (const std::exception& e) {
+                logWarning("prune.failed", {field("error", e.what())});
+            }
+            nextPrune = Clock::now() + std::chrono::minutes(1);
+        }
         if (Clock::now() >= nextCheckpoint) {
             checkpointDirtyJobs();
             nextCheckpoint =
@@ -192,6 +202,64 @@ void Coordinator::backgroundLoop() {
 void Coordinator::recordBlob(const std::string& sha256, uint64_t size) {
     m_db.execute("INSERT OR IGNORE INTO blobs(sha256, size, stored_at) VALUES(?, ?, ?)",
                  {sha256, int64_t(size), wallSeconds()});
+    touchBlobs({sha256});
+}
+
+void Coordinator::touchBlobs(const std::vector<std::string>& sha256s) {
+    const double now = wallSeconds();
+    std::lock_guard lock(m_mutex);
+    for (const std::string& sha : sha256s) m_blobsTouchedAt[sha] = now;
+}
+
+void Coordinator::pruneFinishedJobs(double wallNow) {
+    const double keep = m_options.keepFinishedSeconds;
+    if (!(keep > 0)) return;
+    std::vector<uint64_t> removed;
+    std::set<std::string> referenced;
+    std::unordered_map<std::string, double> touchedAt;
+    {
+        std::lock_guard lock(m_mutex);
+        for (auto it = m_jobs.begin(); it != m_jobs.end();) {
+            const Job& job = *it->second;
+            // Nobody holds a pointer to an ended job outside m_mutex once `completing` is
+            // cleared (finishJob), so it can go.
+            if (job.state != v1::JOB_STATE_RUNNING && !job.completing &&
+                job.finishedAt + keep <= wallNow) {
+                removed.push_back(job.id);
+                it = m_jobs.erase(it);
+                continue;
+            }
+            for (const v1::BundleFile& file : job.description.bundle().files())
+                referenced.insert(file.sha256());
+            ++it;
+        }
+        for (auto& [id, worker] : m_workers)
+            for (uint64_t jobId : removed) worker.lastChunk.erase(jobId);
+        std::erase_if(m_blobsTouchedAt,
+                      [&](const auto& entry) { return entry.second + keep <= wallNow; });
+        touchedAt = m_blobsTouchedAt;
+    }
+    for (uint64_t jobId : removed) {
+        m_db.execute("DELETE FROM units WHERE job_id = ?", {int64_t(jobId)});
+        m_db.execute("DELETE FROM jobs WHERE id = ?", {int64_t(jobId)});
+        std::error_code ignored;
+        fs::remove_all(jobDirectory(jobId), ignored);
+        logInfo("job.removed",
+                {field("job", jobId), field("kept_hours", absl::StrFormat("%.4g", keep / 3600))});
+    }
+    uint64_t blobCount = 0, blobBytes = 0;
+    for (const BlobStore::StoredBlob& blob : m_blobs.list()) {
+        double lastUse = blob.storedAt;
+        if (auto it = touchedAt.find(blob.sha256); it != touchedAt.end())
+            lastUse = std::max(lastUse, it->second);
+        if (referenced.count(blob.sha256) || lastUse + keep > wallNow) continue;
+        m_blobs.remove(blob.sha256);
+        m_db.execute("DELETE FROM blobs WHERE sha256 = ?", {blob.sha256});
+        ++blobCount;
+        blobBytes += blob.size;
+    }
+    if (blobCount > 0)
+        logInfo("blobs.removed", {field("blobs", blobCount), field("bytes", blobBytes)});
 }
 
 // ---- jobs ------------------------------------------------------------------------------------
@@ -400,8 +468,9 @@ void Coordinator::endJobLocked(Job& job, v1::JobState state, const std::string& 
                 it->second.leases.erase(slot.leaseId);
             slot.state = UnitState::Pending;
         }
+    job.finishedAt = wallSeconds();
     m_db.execute("UPDATE jobs SET state = ?, error = ?, finished_at = ? WHERE id = ?",
-                 {int64_t(state), error, wallSeconds(), int64_t(job.id)});
+                 {int64_t(state), error, job.finishedAt, int64_t(job.id)});
     if (state != v1::JOB_STATE_DONE) job.film = FilmBlock();
     (state == v1::JOB_STATE_DONE ? logInfo : logWarning)(
         "job.ended",

@@ -34,6 +34,9 @@ struct CoordinatorOptions {
     uint32_t maxPasses = 1u << 20;
     int defaultTileSize = 64;
     uint32_t defaultPassesPerUnit = 1;
+    // How long an ended job (done, failed, cancelled) stays fetchable before its record, films
+    // and bundle are removed, together with blobs no remaining job uses; 0 keeps everything.
+    double keepFinishedSeconds = 7 * 24 * 3600.0;
 };
 
 // An error with the kind of status the client should see.
@@ -59,6 +62,8 @@ class Coordinator {
 
     BlobStore& blobs() { return m_blobs; }
     void recordBlob(const std::string& sha256, uint64_t size);
+    // A client asked for or sent these blobs: they are about to be used, keep them.
+    void touchBlobs(const std::vector<std::string>& sha256s);
     const CoordinatorOptions& options() const { return m_options; }
 
     // Client side.
@@ -81,6 +86,11 @@ class Coordinator {
     v1::HeartbeatResponse heartbeat(const v1::HeartbeatRequest& request);
     // `header` is the first chunk of the stream, `compressedFilm` all data concatenated.
     v1::ResultDisposition report(const v1::ResultChunk& header, const std::string& compressedFilm);
+    // Removes the jobs that ended more than keepFinishedSeconds before `wallNow` (seconds since
+    // the epoch) and the blobs that no remaining job references and nobody stored or asked for
+    // within that time. The background thread calls it every minute; public for tests.
+    void pruneFinishedJobs(double wallNow);
+
     // Upper bound on a unit result's compressed size (for refusing oversized streams early).
     uint64_t maxResultBytes(uint64_t jobId) const;
 
@@ -109,6 +119,7 @@ class Coordinator {
         std::vector<UnitSlot> units;
         std::set<uint32_t> pending;
         double createdAt = 0;
+        double finishedAt = 0;  // wall clock when the job ended; 0 while running
         std::optional<std::chrono::steady_clock::time_point> firstMergeAt;
         uint64_t samplesMergedThisRun = 0;
         uint64_t passDataBuilds = 0;  // see JobStatus.pass_data_builds
@@ -153,6 +164,7 @@ class Coordinator {
     std::map<uint64_t, std::unique_ptr<Job>> m_jobs;
     std::map<uint64_t, WorkerRecord> m_workers;
     std::unordered_map<uint64_t, LeaseRef> m_leases;
+    std::unordered_map<std::string, double> m_blobsTouchedAt;  // sha256 -> wall clock
     uint64_t m_nextLeaseId;
     bool m_stopping = false, m_stopped = false;
     std::thread m_background;

@@ -272,6 +272,78 @@ TEST_F(CoordinatorJob, ReportsThePhotonRadiusOfTheLastCompletePass) {
     EXPECT_NEAR(status.photon_radius(), expected[2], 1e-12 * expected[0]);
 }
 
+// An ended job stays until keepFinishedSeconds have passed, then its record, directory and the
+// blobs only it used go; a running job and the blobs it uses stay, also across a restart.
+TEST_F(CoordinatorJob, EndedJobsAndUnusedBlobsAreRemovedAfterTheKeepTime) {
+    m_options.keepFinishedSeconds = 1000;
+    const auto wallNow = [] {
+        return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+            .count();
+    };
+    uint64_t ended = 0, running = 0;
+    std::string endedScene, runningScene, sphere, orphan;
+    {
+        Coordinator coordinator(m_options);
+        const v1::SubmitJobRequest first = upload(coordinator);
+        ended = coordinator.submit(first).job_id();
+        const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+        for (;;) {
+            const v1::AcquireWorkResponse lease =
+                coordinator.acquire(worker, std::chrono::steady_clock::now());
+            if (!lease.has_work()) break;
+            std::string compressed;
+            const v1::ResultChunk header = render(lease, worker, compressed);
+            ASSERT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
+        }
+        ASSERT_EQ(coordinator.listJobs(ended).at(0).state(), v1::JOB_STATE_DONE);
+        // A second scene file shares sphere.obj with the first job.
+        std::ofstream(m_dir / "scene/s.xml", std::ios::app) << "<!-- another scene -->\n";
+        const v1::SubmitJobRequest second = upload(coordinator);
+        running = coordinator.submit(second).job_id();
+        for (const v1::BundleFile& file : first.bundle().files())
+            (file.path() == "sphere.obj" ? sphere : endedScene) = file.sha256();
+        for (const v1::BundleFile& file : second.bundle().files())
+            if (file.path() != "sphere.obj") runningScene = file.sha256();
+        // A blob uploaded but never submitted.
+        const std::string bytes = "never used";
+        orphan = farm::sha256Hex(bytes);
+        BlobStore::Upload blob(coordinator.blobs(), orphan);
+        blob.append(bytes);
+        blob.commit();
+        coordinator.recordBlob(orphan, bytes.size());
+
+        coordinator.pruneFinishedJobs(wallNow() + 900);
+        EXPECT_EQ(coordinator.listJobs(0).size(), 2u) << "removed before the keep time";
+        EXPECT_TRUE(coordinator.blobs().has(orphan));
+        EXPECT_TRUE(coordinator.blobs().has(endedScene));
+
+        coordinator.pruneFinishedJobs(wallNow() + 1100);
+        try {
+            coordinator.listJobs(ended);
+            ADD_FAILURE() << "the ended job is still listed";
+        } catch (const FarmError& e) {
+            EXPECT_EQ(e.kind, FarmError::Kind::NotFound);
+        }
+        EXPECT_FALSE(fs::exists(coordinator.jobDirectory(ended)));
+        EXPECT_TRUE(fs::exists(coordinator.jobDirectory(running)));
+        EXPECT_EQ(coordinator.listJobs(running).at(0).state(), v1::JOB_STATE_RUNNING);
+        EXPECT_FALSE(coordinator.blobs().has(endedScene)) << "used by the removed job only";
+        EXPECT_FALSE(coordinator.blobs().has(orphan)) << "never used, stored long ago";
+        EXPECT_TRUE(coordinator.blobs().has(sphere)) << "still used by the running job";
+        EXPECT_TRUE(coordinator.blobs().has(runningScene));
+        coordinator.stop();
+    }
+    Coordinator restarted(m_options);
+    const std::vector<v1::JobStatus> jobs = restarted.listJobs(0);
+    ASSERT_EQ(jobs.size(), 1u) << "the removal is persistent";
+    EXPECT_EQ(jobs.at(0).job_id(), running);
+    // The running job's blobs survive however late it is: only ended jobs release theirs.
+    restarted.pruneFinishedJobs(wallNow() + 1e9);
+    EXPECT_TRUE(restarted.blobs().has(sphere));
+    EXPECT_TRUE(restarted.blobs().has(runningScene));
+    EXPECT_EQ(restarted.listJobs(0).size(), 1u);
+}
+
 TEST_F(CoordinatorJob, BrokenSceneIsRefusedWithFileAndLine) {
     std::ofstream(m_dir / "scene/s.xml")
         << "<scene>\n  <integrator type=\"no_such_integrator\"/>\n</scene>\n";

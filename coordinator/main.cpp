@@ -46,12 +46,19 @@ int main(int argc, char** argv) {
     app.add_option("--max-image-pixels", options.maxImagePixels,
                    "Largest image (width x height) accepted");
     app.add_option("--max-passes", options.maxPasses, "Most passes a job may ask for");
+    double keepFinishedHours = options.keepFinishedSeconds / 3600;
+    app.add_option("--keep-finished-hours", keepFinishedHours,
+                   "Hours an ended job stays fetchable before its record, images and bundle are "
+                   "removed (with blobs no remaining job uses); 0 keeps them forever")
+        ->capture_default_str()
+        ->check(CLI::Range(0.0, 1e6));
     app.add_option("--port-file", portFile, "Write the bound port to this file once listening");
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
         return app.exit(e);
     }
+    options.keepFinishedSeconds = keepFinishedHours * 3600;
 
     // Signals are taken by a dedicated thread (sigwait), so every other thread blocks them.
     sigset_t signals;

@@ -74,8 +74,14 @@ grpc::Status ClientServiceImpl::HasBlobs(grpc::ServerContext* context,
                                          const v1::HasBlobsRequest* request,
                                          v1::HasBlobsResponse* response) {
     return guarded(context, m_token, "HasBlobs", [&] {
+        std::vector<std::string> present;
         for (const std::string& sha : request->sha256())
-            if (!m_coordinator.blobs().has(sha)) response->add_missing(sha);
+            if (m_coordinator.blobs().has(sha))
+                present.push_back(sha);
+            else
+                response->add_missing(sha);
+        // A client asks before it submits: keep these blobs until then.
+        m_coordinator.touchBlobs(present);
         return grpc::Status::OK;
     });
 }

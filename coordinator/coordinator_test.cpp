@@ -17,6 +17,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <set>
 
 namespace alphorn::coordinator {
@@ -141,6 +142,22 @@ class CoordinatorJob : public ::testing::Test {
         return header;
     }
 
+    // Leases every pending unit to `worker`, renders and reports it as a worker does, and
+    // calls `afterMerge` with each lease once its result is merged.
+    void renderAllUnits(
+        Coordinator& coordinator, uint64_t worker,
+        const std::function<void(const v1::AcquireWorkResponse&)>& afterMerge = {}) {
+        for (;;) {
+            const v1::AcquireWorkResponse lease =
+                coordinator.acquire(worker, std::chrono::steady_clock::now());
+            if (!lease.has_work()) return;
+            std::string compressed;
+            const v1::ResultChunk header = render(lease, worker, compressed);
+            ASSERT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
+            if (afterMerge) afterMerge(lease);
+        }
+    }
+
     fs::path m_dir;
     CoordinatorOptions m_options;
 };
@@ -196,16 +213,10 @@ TEST_F(CoordinatorJob, ReverseOrderDuplicatesAndRestartGiveTheLocalFilm) {
     EXPECT_EQ(status.units_restored(), mergedBeforeRestart);
     v1::RegisterRequest registration;
     const uint64_t worker = coordinator.registerWorker(registration);
-    for (;;) {
-        const v1::AcquireWorkResponse lease =
-            coordinator.acquire(worker, std::chrono::steady_clock::now());
-        if (!lease.has_work()) break;
+    renderAllUnits(coordinator, worker, [&](const v1::AcquireWorkResponse& lease) {
         EXPECT_LT(lease.unit().unit_index(), status.units_total() / 2)
             << "a restored unit was leased again";
-        std::string compressed;
-        const v1::ResultChunk header = render(lease, worker, compressed);
-        EXPECT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
-    }
+    });
     status = coordinator.listJobs(jobId).at(0);
     EXPECT_EQ(status.state(), v1::JOB_STATE_DONE);
     EXPECT_EQ(status.units_merged_this_run() + status.units_restored(), status.units_total());
@@ -247,13 +258,7 @@ TEST_F(CoordinatorJob, ReportsThePhotonRadiusOfTheLastCompletePass) {
         EXPECT_EQ(status.photon_radius(), expected[0]);
         const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
         std::set<uint32_t> passesSeen;
-        for (;;) {
-            const v1::AcquireWorkResponse lease =
-                coordinator.acquire(worker, std::chrono::steady_clock::now());
-            if (!lease.has_work()) break;
-            std::string compressed;
-            const v1::ResultChunk header = render(lease, worker, compressed);
-            ASSERT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
+        renderAllUnits(coordinator, worker, [&](const v1::AcquireWorkResponse&) {
             status = coordinator.listJobs(jobId).at(0);
             const uint32_t done = status.passes_done();
             passesSeen.insert(done);
@@ -261,7 +266,7 @@ TEST_F(CoordinatorJob, ReportsThePhotonRadiusOfTheLastCompletePass) {
             EXPECT_NEAR(status.photon_radius(), expected[done > 0 ? done - 1 : 0],
                         1e-12 * expected[0])
                 << done << " passes done";
-        }
+        });
         EXPECT_EQ(passesSeen, (std::set<uint32_t>{0, 1, 2, 3}));
         EXPECT_EQ(status.state(), v1::JOB_STATE_DONE);
         coordinator.stop();
@@ -286,15 +291,7 @@ TEST_F(CoordinatorJob, EndedJobsAndUnusedBlobsAreRemovedAfterTheKeepTime) {
         Coordinator coordinator(m_options);
         const v1::SubmitJobRequest first = upload(coordinator);
         ended = coordinator.submit(first).job_id();
-        const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
-        for (;;) {
-            const v1::AcquireWorkResponse lease =
-                coordinator.acquire(worker, std::chrono::steady_clock::now());
-            if (!lease.has_work()) break;
-            std::string compressed;
-            const v1::ResultChunk header = render(lease, worker, compressed);
-            ASSERT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
-        }
+        renderAllUnits(coordinator, coordinator.registerWorker(v1::RegisterRequest()));
         ASSERT_EQ(coordinator.listJobs(ended).at(0).state(), v1::JOB_STATE_DONE);
         // A second scene file shares sphere.obj with the first job.
         std::ofstream(m_dir / "scene/s.xml", std::ios::app) << "<!-- another scene -->\n";

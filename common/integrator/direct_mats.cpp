@@ -1,8 +1,8 @@
 // <integrator type="direct_mats">: direct illumination by BSDF ("material") sampling (Nori's).
 // Emission seen by the camera plus one BSDF-sampled ray whose emission, if it hits a light, is
 // weighted by the sample weight. Delta lights (point) cannot be reached this way and stay dark.
-#include "common/integrator/direct.h"
 #include "common/integrator/integrator.h"
+#include "common/integrator/path.h"
 
 namespace alphorn {
 
@@ -12,18 +12,8 @@ class DirectMats : public Integrator {
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,
                const PassData*) const override {
-        Intersection its;
-        if (!scene.rayIntersect(ray, its)) return Color3f(0.0f);
-        const Vector3f dir = ray.d.normalized();
-        Color3f result = emittedRadiance(ray.o, dir, its);
-
-        BSDFQueryRecord bRec = makeBSDFQuery(its, its.toLocal(-dir));
-        const Color3f weight = its.mesh->bsdf()->sample(bRec, sampler.next2D());
-        if (weight.isBlack() || !weight.allFinite()) return result;
-        const Ray3f next(its.p, its.toWorld(bRec.wo));
-        Intersection lightIts;
-        if (!scene.rayIntersect(next, lightIts)) return result;
-        return result + weight * emittedRadiance(next.o, next.d, lightIts);
+        // A one-bounce path: the path tracer's loop stopped at depth 1 is exactly this.
+        return tracePath(scene, sampler, ray, 1, DirectLight::BSDFSampling);
     }
 
     std::string toString() const override { return "direct_mats integrator"; }

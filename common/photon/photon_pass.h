@@ -5,15 +5,21 @@
 
 #include "common/integrator/integrator.h"
 #include "common/photon/photon_map.h"
+#include "common/photon/volume_photon_map.h"
 
 namespace alphorn {
 
 struct PhotonPassData : PassData {
     PhotonMap surface;
-    // A volumetric photon mapper adds its volume map (and the beam estimate's index) here.
     double powerScale = 0.0;  // 1 / photons emitted in the pass (64-bit count, in double)
     uint64_t emitted = 0;
     float surfaceRadius = 0.0f;  // the pass's gather radius, or the kNN search radius
+    // The volumetric photon mapper's volume photons with the beam estimate's index (empty for
+    // the surface photon mapper and for scenes without media), normalised by their own count.
+    VolumePhotonMap volume;
+    double volumePowerScale = 0.0;  // 1 / photon paths that stored volume photons
+    uint64_t volumeEmitted = 0;
+    float volumeRadius = 0.0f;  // the pass's fixed radius, or the kNN radii's upper bound
 };
 
 }  // namespace alphorn

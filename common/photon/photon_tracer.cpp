@@ -1,6 +1,7 @@
 #include "common/photon/photon_tracer.h"
 
 #include "common/integrator/direct.h"
+#include "common/integrator/volume.h"
 #include "common/scene/scene.h"
 
 #include <tbb/parallel_for.h>
@@ -53,6 +54,129 @@ void tracePhoton(const Scene& scene, Sampler& sampler, std::vector<Photon>& out)
     }
 }
 
+// The medium an emitted photon starts in: the side facing it of the first medium boundary along
+// its ray (or, if none lies ahead, behind it). Without any boundary on that line, the camera's
+// medium, which the bookkeeping of volume.h gives every region no boundary declares (meshes
+// without media keep the current one). Unlike mediumAt() this is right for area lights that sit
+// on a medium boundary themselves: the line starts just off the light, along the emission.
+const Medium* startMedium(const Scene& scene, const Ray3f& emitted) {
+    for (const Vector3f& direction : {Vector3f(emitted.d), Vector3f(-emitted.d)}) {
+        Ray3f ray(emitted.o, direction, Epsilon, Infinity);
+        for (;;) {
+            Intersection its;
+            if (!scene.rayIntersect(ray, its)) break;
+            if (its.mesh->hasMediumInterface())
+                return its.mesh->mediumTowards(its, -ray.d, nullptr);
+            ray = Ray3f(its.p, ray.d, Epsilon, Infinity);
+        }
+    }
+    return scene.camera()->medium();
+}
+
+// Where each kind of photon goes; nullptr: not stored for this path.
+struct PhotonOutputs {
+    std::vector<Photon>* surface = nullptr;
+    std::vector<Photon>* volume = nullptr;
+    std::vector<const Medium*>* volumeMedia = nullptr;  // beside `volume`
+};
+
+// tracePhoton() through media: the free-flight and phase sampling of volume.h's path loop, run
+// from the light. The throughput carries spectral MIS for chromatic media (see MediumSample).
+void tracePhotonThroughMedia(const Scene& scene, Sampler& sampler,
+                             const Eigen::AlignedBox3f& mediaBox, const PhotonOutputs& out) {
+    float selection = sampler.next1D();
+    const Point2f positionSample = sampler.next2D();
+    const Point2f directionSample = sampler.next2D();
+    float selectionPdf = 0.0f;
+    const Emitter* emitter = scene.sampleEmitterByPower(selection, selectionPdf);
+    if (!emitter || !(selectionPdf > 0.0f)) return;
+    Ray3f emittedRay;
+    const Color3f flux =
+        emitter->samplePhoton(emittedRay, positionSample, directionSample) / selectionPdf;
+    if (!flux.isValid() || flux.isBlack()) return;
+    const float length = emittedRay.d.norm();
+    if (!(length > 0.0f)) return;
+    // Unit direction: media measure distances in world units.
+    Ray3f ray(emittedRay.o, emittedRay.d / length, emittedRay.mint * length,
+              emittedRay.maxt * length);
+    const Medium* medium = startMedium(scene, ray);
+    Eigen::AlignedBox3f bounds = mediaBox;
+    bounds.extend(ray.o);
+
+    SpectralThroughput path;
+    Color3f& throughput = path.throughput;
+    // Roulette after every scattering event, as tracePhoton() does: keeps photon powers near
+    // equal and ends paths in closed scenes of albedo 1.
+    auto survivesRoulette = [&]() {
+        const float q = std::min(throughput.maxCoeff(), 0.99f);
+        if (!(sampler.next1D() < q)) return false;
+        throughput /= q;
+        return true;
+    };
+    for (;;) {
+        Intersection its;
+        const bool hit = scene.rayIntersect(ray, its);
+        if (isParticipating(medium)) {
+            const float end = hit ? its.t : std::min(ray.maxt, exitDistance(bounds, ray));
+            const MediumSample ms =
+                medium->sampleDistance(Ray3f(ray.o, ray.d), end, sampler, path.hero);
+            if (ms.event == MediumSample::Event::Absorbed) return;
+            path.apply(ms);
+            // A purely absorbing medium scatters with weight sigmaS = 0: nothing is stored.
+            if (throughput.isBlack() || !throughput.allFinite()) return;
+            if (ms.event == MediumSample::Event::Scattered) {
+                if (out.volume) {
+                    out.volume->push_back(Photon{ms.p, -ray.d, flux * throughput});
+                    out.volumeMedia->push_back(medium);
+                }
+                Vector3f wo;
+                const float weight = medium->phase().sample(-ray.d, wo, sampler.next2D());
+                if (!(weight > 0.0f)) return;
+                throughput *= weight;
+                if (!survivesRoulette()) return;
+                ray = Ray3f(ms.p, wo.normalized(), 0.0f, Infinity);
+                continue;
+            }
+        }
+        if (!hit) return;
+        const Vector3f dir = ray.d;
+        const BSDF& bsdf = *its.mesh->bsdf();
+        if (bsdf.isNull()) {
+            // An index-matched boundary: only the medium changes, no event, no random number.
+            medium = its.mesh->mediumTowards(its, dir, medium);
+            ray = Ray3f(its.p, dir, Epsilon, ray.maxt - its.t);
+            continue;
+        }
+        if (out.surface && bsdf.isDiffuse())
+            out.surface->push_back(Photon{its.p, -dir, flux * throughput});
+
+        BSDFQueryRecord rec = makeBSDFQuery(its, its.toLocal(-dir));
+        Color3f weight = bsdf.sample(rec, sampler.next2D());
+        if (weight.isBlack() || !weight.allFinite()) return;
+        weight *= rec.eta * rec.eta;  // flux, not radiance: see tracePhoton()
+        throughput *= weight;
+        if (!survivesRoulette()) return;
+        const Vector3f wo = its.toWorld(rec.wo).normalized();
+        medium = its.mesh->mediumTowards(its, wo, medium);
+        ray = Ray3f(its.p, wo);
+    }
+}
+
+// Concatenates per-chunk records in chunk order (and frees the chunks): the result is the same
+// for any scheduling of the chunks.
+template <typename T>
+std::vector<T> concatenate(std::vector<std::vector<T>>& chunks) {
+    const size_t count = chunks.size();
+    std::vector<size_t> offsets(count + 1, 0);
+    for (size_t c = 0; c < count; ++c) offsets[c + 1] = offsets[c] + chunks[c].size();
+    std::vector<T> result(offsets[count]);
+    tbb::parallel_for(size_t(0), count, [&](size_t c) {
+        std::copy(chunks[c].begin(), chunks[c].end(), result.begin() + offsets[c]);
+        std::vector<T>().swap(chunks[c]);
+    });
+    return result;
+}
+
 }  // namespace
 
 TracedPhotons tracePhotons(const Scene& scene, uint64_t seed, uint64_t pass, uint64_t count) {
@@ -72,13 +196,38 @@ TracedPhotons tracePhotons(const Scene& scene, uint64_t seed, uint64_t pass, uin
         }
     });
     // Concatenate in chunk order: the map's content is the same for any scheduling.
-    std::vector<size_t> offsets(chunks + 1, 0);
-    for (uint64_t c = 0; c < chunks; ++c) offsets[c + 1] = offsets[c] + stored[c].size();
-    result.surface.resize(offsets[chunks]);
+    result.surface = concatenate(stored);
+    return result;
+}
+
+TracedPhotons tracePhotonsThroughMedia(const Scene& scene, uint64_t seed, uint64_t pass,
+                                       uint64_t surfaceCount, uint64_t volumeCount) {
+    TracedPhotons result;
+    result.emitted = surfaceCount;
+    result.volumeEmitted = volumeCount;
+    const uint64_t count = std::max(surfaceCount, volumeCount);
+    if (count == 0 || scene.emitters().empty()) return result;
+    const Eigen::AlignedBox3f mediaBox = mediaBounds(scene);
+    const uint64_t chunks = (count + kChunk - 1) / kChunk;
+    std::vector<std::vector<Photon>> surface(chunks), volume(chunks);
+    std::vector<std::vector<const Medium*>> volumeMedia(chunks);
     tbb::parallel_for(uint64_t(0), chunks, [&](uint64_t c) {
-        std::copy(stored[c].begin(), stored[c].end(), result.surface.begin() + offsets[c]);
-        std::vector<Photon>().swap(stored[c]);
+        std::unique_ptr<Sampler> sampler = scene.sampler()->clone();
+        const uint64_t end = std::min(count, (c + 1) * kChunk);
+        for (uint64_t i = c * kChunk; i < end; ++i) {
+            sampler->startStream(seed, pass, i, StreamPurpose::Photon);
+            PhotonOutputs out;
+            if (i < surfaceCount) out.surface = &surface[c];
+            if (i < volumeCount) {
+                out.volume = &volume[c];
+                out.volumeMedia = &volumeMedia[c];
+            }
+            tracePhotonThroughMedia(scene, *sampler, mediaBox, out);
+        }
     });
+    result.surface = concatenate(surface);
+    result.volume = concatenate(volume);
+    result.volumeMedia = concatenate(volumeMedia);
     return result;
 }
 

@@ -9,20 +9,40 @@
 
 namespace alphorn {
 
+class Medium;
 class Scene;
 
 struct TracedPhotons {
     // Photons stored at non-delta surfaces, in photon-index order (and, for one photon path,
-    // in path order). A volume photon map will be filled by the same loop, beside this one.
+    // in path order).
     std::vector<Photon> surface;
-    // Photon paths started, the count every stored power is divided by (64-bit: a progressive
-    // render emits far more than 2³² photons over its passes, and farms more still).
+    // Photons stored at scattering events in media (tracePhotonsThroughMedia only), same order,
+    // and the medium each scattered in (its phase function serves the beam estimate).
+    std::vector<Photon> volume;
+    std::vector<const Medium*> volumeMedia;
+    // Photon paths whose surface photons were kept, the count every stored surface power is
+    // divided by (64-bit: a progressive render emits far more than 2³² photons over its passes,
+    // and farms more still).
     uint64_t emitted = 0;
+    // The same for the volume photons.
+    uint64_t volumeEmitted = 0;
 };
 
 // Emits `count` photons, each from an emitter chosen in proportion to its power and sampled by
 // that emitter's own samplePhoton(), and follows them with Russian roulette (no depth cap:
 // a cap biases bright closed scenes low). Runs in parallel over fixed chunks of photon indices.
 TracedPhotons tracePhotons(const Scene& scene, uint64_t seed, uint64_t pass, uint64_t count);
+
+// The same loop through participating media, for the volumetric photon mapper: photons start in
+// the medium around their emitter, cross null (index-matched) boundaries without an event, fly
+// through media by the medium's own free-flight sampling (closed form or delta tracking, spectral
+// MIS for chromatic media) and scatter by its phase function. Path i stores its surface photons
+// (non-delta surfaces) when i < surfaceCount and its volume photons (every scattering event in a
+// medium, with the power after the event's weight, which carries sigmaS; see
+// volumetric_photonmapper.cpp) when i < volumeCount; max(surfaceCount, volumeCount) paths are
+// traced. Russian roulette at every event, no depth cap. `emitted` = surfaceCount and
+// `volumeEmitted` = volumeCount.
+TracedPhotons tracePhotonsThroughMedia(const Scene& scene, uint64_t seed, uint64_t pass,
+                                       uint64_t surfaceCount, uint64_t volumeCount);
 
 }  // namespace alphorn

@@ -1,0 +1,171 @@
+// The volumetric_photonmapper integrator's pass data and stability: no volume map without media,
+// one count per map, both radii on the shared schedule, and finite, not inflated, estimates
+// where density estimation fails (no photons; fewer volume photons than k). Its accuracy is
+// tested by tests/statistical/volumetric_photonmapper_*_ttest.xml.
+#include "common/core/rng.h"
+#include "common/integrator/integrator.h"
+#include "common/photon/photon_pass.h"
+#include "common/photon/radius_schedule.h"
+#include "common/render/local_render.h"
+#include "common/scene/parser.h"
+#include "common/scene/scene.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+namespace alphorn {
+namespace {
+
+const std::string kMeshes = ALPHORN_SOURCE_DIR "/scenes/meshes/";
+
+// The furnace of photonmapper_test.cpp (a closed box of albedo 0.5 emitting radiance 1, the
+// camera at its centre), optionally filled with a medium (the camera's).
+std::string furnace(const std::string& cameraMedium) {
+    return "<camera type=\"perspective\"><transform name=\"toWorld\"><lookat origin=\"0,0,0\" "
+           "target=\"1,0,0\" up=\"0,1,0\"/></transform><float name=\"fov\" value=\"30\"/><integer "
+           "name=\"width\" value=\"4\"/><integer name=\"height\" value=\"4\"/>" +
+           cameraMedium + "</camera>\n<mesh type=\"obj\"><string name=\"filename\" value=\"" +
+           kMeshes +
+           "cube_inward.obj\"/><bsdf type=\"diffuse\"><color name=\"albedo\" value=\"0.5\"/>"
+           "</bsdf><emitter type=\"area\"><color name=\"radiance\" value=\"1\"/></emitter></mesh>";
+}
+const std::string kFog =
+    "<medium type=\"homogeneous\"><color name=\"sigmaS\" value=\"1\"/></medium>";
+
+std::string integer(const std::string& name, int value) {
+    return "<integer name=\"" + name + "\" value=\"" + std::to_string(value) + "\"/>";
+}
+std::string floating(const std::string& name, const std::string& value) {
+    return "<float name=\"" + name + "\" value=\"" + value + "\"/>";
+}
+const std::string kProgressive = "<boolean name=\"progressive\" value=\"true\"/>";
+
+class VolumetricPhotonMapperTest : public ::testing::Test {
+  protected:
+    void SetUp() override {
+        m_dir = std::filesystem::temp_directory_path() /
+                ("alphorn_volumetric_photonmapper_test_" + std::to_string(::getpid()));
+        std::filesystem::create_directories(m_dir);
+    }
+    void TearDown() override { std::filesystem::remove_all(m_dir); }
+
+    std::shared_ptr<Scene> load(const std::string& integratorParams, const std::string& body) {
+        const std::string text = "<scene>\n<integrator type=\"volumetric_photonmapper\">" +
+                                 integratorParams + "</integrator>\n" + body + "\n</scene>\n";
+        const std::filesystem::path path = m_dir / "scene.xml";
+        std::ofstream(path) << text;
+        return loadScene(path.string());
+    }
+
+    static const PhotonPassData& passData(const std::shared_ptr<const PassData>& data) {
+        const auto* p = dynamic_cast<const PhotonPassData*>(data.get());
+        if (!p) throw std::runtime_error("not photon pass data");
+        return *p;
+    }
+
+    std::filesystem::path m_dir;
+};
+
+TEST_F(VolumetricPhotonMapperTest, NoMediumNoVolumeMap) {
+    auto scene = load(integer("photonCount", 2000), furnace(""));
+    const auto data = scene->integrator()->preparePass(*scene, 1, 0);
+    EXPECT_FALSE(passData(data).surface.empty());
+    EXPECT_TRUE(passData(data).volume.empty());
+    EXPECT_EQ(passData(data).volumeEmitted, 0u);
+}
+
+TEST_F(VolumetricPhotonMapperTest, EachMapHasItsOwnCount) {
+    auto scene = load(integer("surfacePhotonCount", 3000) + integer("volumePhotonCount", 1000),
+                      furnace(kFog));
+    const auto owner = scene->integrator()->preparePass(*scene, 1, 0);
+    const PhotonPassData& data = passData(owner);
+    EXPECT_EQ(data.emitted, 3000u);
+    EXPECT_DOUBLE_EQ(data.powerScale, 1.0 / 3000.0);
+    EXPECT_EQ(data.volumeEmitted, 1000u);
+    EXPECT_DOUBLE_EQ(data.volumePowerScale, 1.0 / 1000.0);
+    EXPECT_FALSE(data.volume.empty());
+    // The volume photons come from the first 1000 paths only; the surface photons from all.
+    auto fewer = load(integer("surfacePhotonCount", 3000) + integer("volumePhotonCount", 500),
+                      furnace(kFog));
+    const auto halfOwner = fewer->integrator()->preparePass(*fewer, 1, 0);
+    const PhotonPassData& half = passData(halfOwner);
+    EXPECT_LT(half.volume.size(), data.volume.size());
+    EXPECT_EQ(half.surface.size(), data.surface.size());
+}
+
+TEST_F(VolumetricPhotonMapperTest, BothRadiiFollowTheSchedule) {
+    auto scene =
+        load(integer("photonCount", 300) + floating("surfacePhotonRadius", "0.2") +
+                 floating("volumePhotonRadius", "0.1") + floating("alpha", "0.7") + kProgressive,
+             furnace(kFog));
+    const Integrator& integrator = *scene->integrator();
+    ASSERT_TRUE(integrator.radiusSchedule().has_value());
+    EXPECT_DOUBLE_EQ(integrator.radiusSchedule()->initialRadius, 0.2f);
+    EXPECT_DOUBLE_EQ(integrator.radiusSchedule()->alpha, 0.7f);
+    for (uint64_t pass : {0, 1, 7, 1000}) {
+        const auto passOwner = integrator.preparePass(*scene, 3, pass);  // owns the maps
+        const PhotonPassData& data = passData(passOwner);
+        EXPECT_EQ(data.surfaceRadius, static_cast<float>(progressiveRadius(0.2f, 0.7f, pass)));
+        EXPECT_EQ(data.volumeRadius, static_cast<float>(progressiveRadius(0.1f, 0.7f, pass)));
+        ASSERT_FALSE(data.volume.empty());
+        EXPECT_EQ(data.volume.radius(0), data.volumeRadius);
+    }
+}
+
+TEST_F(VolumetricPhotonMapperTest, NoPhotonsGiveAFiniteBlackImage) {
+    // No emitter: both maps empty; every mode must give 0, not NaN.
+    const std::string dark =
+        "<camera type=\"perspective\"><integer name=\"width\" value=\"6\"/><integer "
+        "name=\"height\" value=\"4\"/>" +
+        kFog + "</camera><mesh type=\"obj\"><string name=\"filename\" value=\"" + kMeshes +
+        "cube_inward.obj\"/></mesh>";
+    for (const std::string& params :
+         {integer("photonCount", 100),
+          integer("photonCount", 100) + integer("surfaceK", 8) + integer("volumeK", 8),
+          integer("photonCount", 100) + kProgressive}) {
+        auto scene = load(params, dark);
+        RenderSettings settings;
+        settings.passes = 2;
+        FilmBlock film = renderLocal(*scene, settings);
+        EXPECT_EQ(film.invalidSamples, 0u) << params;
+        Image image = resolveImage(film, 6, 4);
+        for (float v : image.rgb) EXPECT_EQ(v, 0.0f) << params;
+    }
+}
+
+TEST_F(VolumetricPhotonMapperTest, FewerVolumePhotonsThanKUseTheLargestRadius) {
+    // A few photon paths in the fog and volumeK = 1000: no photon has 1000 neighbours, so every
+    // radius is volumePhotonRadius and the image equals the fixed-radius one (same photons),
+    // finite, not inflated by radii shrunk to the few photons there are.
+    auto knn =
+        load(integer("photonCount", 30) + integer("volumeK", 1000) +
+                 floating("volumePhotonRadius", "0.5") + floating("surfacePhotonRadius", "0.3"),
+             furnace(kFog));
+    auto fixed = load(integer("photonCount", 30) + floating("volumePhotonRadius", "0.5") +
+                          floating("surfacePhotonRadius", "0.3"),
+                      furnace(kFog));
+    const auto knnPass = knn->integrator()->preparePass(*knn, 2, 0);
+    const auto fixedPass = fixed->integrator()->preparePass(*fixed, 2, 0);
+    ASSERT_FALSE(passData(knnPass).volume.empty());
+    ASSERT_LT(passData(knnPass).volume.size(), 1000u);
+    std::unique_ptr<Sampler> sampler = knn->sampler()->clone();
+    int lit = 0;
+    for (int i = 0; i < 200; ++i) {
+        Rng rng(8, 0, i, StreamPurpose::Test);
+        const Vector3f d(1.0f, 2.0f * rng.nextFloat() - 1.0f, 2.0f * rng.nextFloat() - 1.0f);
+        const Ray3f ray(Point3f::Zero(), d.normalized());
+        sampler->startStream(1, 0, i, StreamPurpose::Camera);
+        const Color3f a = knn->integrator()->Li(*knn, *sampler, ray, knnPass.get());
+        sampler->startStream(1, 0, i, StreamPurpose::Camera);
+        const Color3f b = fixed->integrator()->Li(*fixed, *sampler, ray, fixedPass.get());
+        ASSERT_TRUE(a.allFinite());
+        EXPECT_NEAR(a.r(), b.r(), 1e-5f * b.r()) << i;
+        if (a.r() > 0.5f) ++lit;  // photons seen: the attenuated emission alone is < 0.37
+    }
+    EXPECT_GT(lit, 20) << "too few rays lit: the comparison is vacuous";
+}
+
+}  // namespace
+}  // namespace alphorn

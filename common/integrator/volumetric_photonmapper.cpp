@@ -42,93 +42,47 @@
 // pass 0's streams; with it, pass i traces its own photons and gathers at the surface and volume
 // radii of pass i from the one shared schedule (radius_schedule.h). radiusSchedule() reports the
 // surface radius (the progress line shows one number; both follow the same ratio).
-#include "common/integrator/direct.h"
-#include "common/integrator/integrator.h"
+#include "common/integrator/photon_mapping.h"
 #include "common/integrator/volume.h"
-#include "common/photon/density_estimate.h"
-#include "common/photon/photon_pass.h"
 #include "common/photon/photon_tracer.h"
-#include "common/photon/radius_schedule.h"
 #include "common/scene/scene.h"
 
 #include <absl/strings/str_format.h>
 
-#include <mutex>
-
 namespace alphorn {
 
-class VolumetricPhotonMapper : public Integrator {
+class VolumetricPhotonMapper : public PhotonMappingIntegrator {
   public:
-    explicit VolumetricPhotonMapper(const PropertyList& props) {
-        const int count = props.getInteger("photonCount", 1000000);
-        if (count <= 0)
-            props.fail("\"photonCount\" (photon paths emitted per pass) must be positive, got %d",
-                       count);
-        m_surfaceCount = photonCount(props, "surfacePhotonCount", count);
-        m_volumeCount = photonCount(props, "volumePhotonCount", count);
-
-        m_surfaceRadiusGiven = props.has("surfacePhotonRadius");
-        m_surfaceRadius = positiveRadius(props, "surfacePhotonRadius");
+    explicit VolumetricPhotonMapper(const PropertyList& props) : PhotonMappingIntegrator(props) {
+        m_surfaceCount = photonCount(props, "surfacePhotonCount", m_photonCount);
+        m_volumeCount = photonCount(props, "volumePhotonCount", m_photonCount);
         m_volumeRadiusGiven = props.has("volumePhotonRadius");
-        m_volumeRadius = positiveRadius(props, "volumePhotonRadius");
-        m_surfaceK = neighbourCount(props, "surfaceK");
-        m_volumeK = neighbourCount(props, "volumeK");
-
-        m_progressive = props.getBoolean("progressive", false);
-        const float alpha = props.getFloat("alpha", 0.5f);
-        if (!isValidRadiusAlpha(alpha))
-            props.fail(
-                "\"alpha\" must be in (0, 1) (the fraction of photons kept per pass), got %g",
-                alpha);
-        m_alpha = alpha;
-        // kNN radii adapt to each pass's photons; averaging passes of a kNN estimate does not
-        // converge, so progressive mode needs fixed radii to shrink.
-        if (m_progressive && (m_surfaceK > 0 || m_volumeK > 0))
+        m_volumeRadius = props.getFloat("volumePhotonRadius", 0.0f);
+        if (m_volumeRadiusGiven && !(m_volumeRadius > 0.0f && std::isfinite(m_volumeRadius)))
+            props.fail("\"volumePhotonRadius\" must be positive and finite, got %g",
+                       m_volumeRadius);
+        m_volumeK = props.getInteger("volumeK", 0);
+        if (props.has("volumeK") && m_volumeK < 2)
+            props.fail("\"volumeK\" must be at least 2, got %d", m_volumeK);
+        // As for surfaces (photon_mapping.h): progressive mode shrinks fixed radii.
+        if (m_progressive && m_volumeK > 0)
             props.fail(
                 "\"progressive\" shrinks fixed radii: use \"surfacePhotonRadius\" and "
-                "\"volumePhotonRadius\", not \"%s\"",
-                m_surfaceK > 0 ? "surfaceK" : "volumeK");
+                "\"volumePhotonRadius\", not \"volumeK\"");
     }
 
     void preprocess(const Scene& scene) override {
-        // Nori's default surface radius, 1/500 of the scene's diagonal; the volume default is
-        // 1/100 (a beam crosses few photons at Nori's surface radius). kNN searches without a
-        // given radius may reach across the whole scene.
-        const float diagonal = scene.bounds().isEmpty() ? 1.0f : scene.bounds().diagonal().norm();
-        if (!m_surfaceRadiusGiven) m_surfaceRadius = m_surfaceK > 0 ? diagonal : diagonal / 500.0f;
+        PhotonMappingIntegrator::preprocess(scene);
+        // The volume default is 1/100 of the diagonal (a beam crosses few photons at Nori's
+        // surface radius); a kNN search without a given radius may reach across the scene.
+        const float diagonal = sceneDiagonal(scene);
         if (!m_volumeRadiusGiven) m_volumeRadius = m_volumeK > 0 ? diagonal : diagonal / 100.0f;
-        if (!(m_surfaceRadius > 0.0f && std::isfinite(m_surfaceRadius) && m_volumeRadius > 0.0f &&
-              std::isfinite(m_volumeRadius)))
+        if (!(m_volumeRadius > 0.0f && std::isfinite(m_volumeRadius)))
             fail(
-                "cannot derive photon radii from the scene's bounds; give "
-                "\"surfacePhotonRadius\" and \"volumePhotonRadius\"");
+                "cannot derive a volume photon radius from the scene's bounds; give "
+                "\"volumePhotonRadius\"");
         m_mediaBox = mediaBounds(scene);
         m_hasMedia = sceneHasMedia(scene);
-        std::lock_guard lock(m_cacheMutex);
-        m_cached.reset();
-    }
-
-    std::shared_ptr<const PassData> preparePass(const Scene& scene, uint64_t seed,
-                                                uint64_t pass) const override {
-        if (m_progressive) {
-            return trace(scene, seed, pass,
-                         static_cast<float>(progressiveRadius(m_surfaceRadius, m_alpha, pass)),
-                         static_cast<float>(progressiveRadius(m_volumeRadius, m_alpha, pass)));
-        }
-        // One pair of maps for all passes of a seed: built once, by whoever asks first.
-        std::lock_guard lock(m_cacheMutex);
-        if (!m_cached || m_cachedSeed != seed || m_cachedScene != &scene) {
-            m_cached.reset();  // free the old maps before tracing the new ones
-            m_cached = trace(scene, seed, 0, m_surfaceRadius, m_volumeRadius);
-            m_cachedSeed = seed;
-            m_cachedScene = &scene;
-        }
-        return m_cached;
-    }
-
-    std::optional<RadiusSchedule> radiusSchedule() const override {
-        if (!m_progressive) return std::nullopt;
-        return RadiusSchedule{m_surfaceRadius, m_alpha};
     }
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
@@ -188,30 +142,18 @@ class VolumetricPhotonMapper : public Integrator {
         return absl::StrFormat(
             "volumetric_photonmapper (%u surface and %u volume photon paths per pass; surface %s; "
             "volume %s%s)",
-            m_surfaceCount, m_volumeCount, lookup(m_surfaceK, m_surfaceRadius),
+            m_surfaceCount, m_volumeCount, lookup(m_surfaceK, surfaceRadius()),
             lookup(m_volumeK, m_volumeRadius),
             m_progressive ? absl::StrFormat("; progressive, alpha %g", m_alpha) : "");
     }
 
   private:
-    static uint64_t photonCount(const PropertyList& props, const std::string& name, int fallback) {
-        const int count = props.getInteger(name, fallback);
+    static uint64_t photonCount(const PropertyList& props, const std::string& name,
+                                uint64_t fallback) {
+        const int count = props.getInteger(name, static_cast<int>(fallback));
         if (count < 0)
             props.fail("\"%s\" (photon paths per pass) must be at least 0, got %d", name, count);
         return static_cast<uint64_t>(count);
-    }
-
-    static float positiveRadius(const PropertyList& props, const std::string& name) {
-        const float radius = props.getFloat(name, 0.0f);
-        if (props.has(name) && !(radius > 0.0f && std::isfinite(radius)))
-            props.fail("\"%s\" must be positive and finite, got %g", name, radius);
-        return radius;
-    }
-
-    static int neighbourCount(const PropertyList& props, const std::string& name) {
-        const int k = props.getInteger(name, 0);
-        if (props.has(name) && k < 2) props.fail("\"%s\" must be at least 2, got %d", name, k);
-        return k;
     }
 
     // Does any light interaction happen in a medium? Without, no volume photon is traced.
@@ -223,18 +165,14 @@ class VolumetricPhotonMapper : public Integrator {
         return false;
     }
 
-    std::shared_ptr<const PhotonPassData> trace(const Scene& scene, uint64_t seed, uint64_t pass,
-                                                float surfaceRadius, float volumeRadius) const {
+    std::shared_ptr<const PhotonPassData> tracePass(const Scene& scene, uint64_t seed,
+                                                    uint64_t pass) const override {
         const uint64_t volumeCount = m_hasMedia ? m_volumeCount : 0;
         TracedPhotons traced =
             tracePhotonsThroughMedia(scene, seed, pass, m_surfaceCount, volumeCount);
         auto data = std::make_shared<PhotonPassData>();
-        data->surface = PhotonMap(
-            std::move(traced.surface),
-            m_surfaceK > 0 ? PhotonMap::Lookup::Nearest : PhotonMap::Lookup::Radius, surfaceRadius);
-        data->emitted = traced.emitted;
-        data->powerScale = traced.emitted > 0 ? 1.0 / static_cast<double>(traced.emitted) : 0.0;
-        data->surfaceRadius = surfaceRadius;
+        setSurfaceMap(*data, std::move(traced.surface), traced.emitted, pass);
+        const float volumeRadius = passRadius(m_volumeRadius, pass);
         if (!traced.volume.empty())
             data->volume =
                 m_volumeK > 0
@@ -365,39 +303,12 @@ class VolumetricPhotonMapper : public Integrator {
         return beam * static_cast<float>(data.volumePowerScale) + emitted;
     }
 
-    // Radiance leaving a non-delta surface towards the camera, from the surface photons (as in
-    // photonmapper.cpp).
-    Color3f reflectedRadiance(const PhotonPassData& data, const Intersection& its, const BSDF& bsdf,
-                              const Vector3f& wi) const {
-        if (data.surface.empty()) return Color3f(0.0f);
-        BSDFQueryRecord rec = makeBSDFQuery(its, wi);
-        rec.measure = Measure::SolidAngle;
-        // The photon power density already holds the cosine at the surface: no cos here.
-        auto weight = [&](const Photon& photon) {
-            rec.wo = its.toLocal(photon.direction);
-            return Color3f(bsdf.eval(rec) * photon.power);
-        };
-        const Color3f density =
-            m_surfaceK > 0
-                ? nearestNeighbourEstimate(data.surface, its.p, static_cast<size_t>(m_surfaceK),
-                                           data.surfaceRadius, weight)
-                : fixedRadiusEstimate(data.surface, its.p, data.surfaceRadius, weight);
-        return density * static_cast<float>(data.powerScale);
-    }
-
     uint64_t m_surfaceCount = 0, m_volumeCount = 0;
-    float m_surfaceRadius = 0.0f, m_volumeRadius = 0.0f;
-    bool m_surfaceRadiusGiven = false, m_volumeRadiusGiven = false;
-    int m_surfaceK = 0, m_volumeK = 0;
-    bool m_progressive = false;
-    double m_alpha = 0.5;
+    float m_volumeRadius = 0.0f;
+    bool m_volumeRadiusGiven = false;
+    int m_volumeK = 0;
     Eigen::AlignedBox3f m_mediaBox;
     bool m_hasMedia = false;
-
-    mutable std::mutex m_cacheMutex;
-    mutable std::shared_ptr<const PhotonPassData> m_cached;
-    mutable uint64_t m_cachedSeed = 0;
-    mutable const Scene* m_cachedScene = nullptr;
 };
 
 ALPHORN_REGISTER(Integrator, "volumetric_photonmapper", VolumetricPhotonMapper);

@@ -1,0 +1,63 @@
+// What photonmapper and volumetric_photonmapper share: the surface photon map's parameters
+// (`photonCount`, `surfacePhotonRadius`, `surfaceK`, `progressive`, `alpha`), the pass data
+// (one cached map per seed, or in progressive mode each pass's own photons at its radius from
+// the one shared schedule), the radius schedule for progress reports, and the surface density
+// estimate. Each integrator adds only how it traces photons and how camera paths gather.
+#pragma once
+
+#include "common/integrator/integrator.h"
+#include "common/photon/photon_pass.h"
+
+#include <mutex>
+
+namespace alphorn {
+
+class BSDF;
+struct Intersection;
+
+class PhotonMappingIntegrator : public Integrator {
+  public:
+    // Derived classes that override it call it first: it sets the default surface radius and
+    // drops the cached maps of an earlier scene.
+    void preprocess(const Scene& scene) override;
+    std::shared_ptr<const PassData> preparePass(const Scene& scene, uint64_t seed,
+                                                uint64_t pass) const final;
+    std::optional<RadiusSchedule> radiusSchedule() const override;
+
+  protected:
+    explicit PhotonMappingIntegrator(const PropertyList& props);
+
+    // Traces the photons of `pass` (pass 0 for the one map of non-progressive mode) and builds
+    // its maps; must be a pure function of (scene, seed, pass).
+    virtual std::shared_ptr<const PhotonPassData> tracePass(const Scene& scene, uint64_t seed,
+                                                            uint64_t pass) const = 0;
+    // The gather radius of `pass` for a map whose first pass uses `initialRadius`: shrunk by
+    // the Knaus–Zwicker schedule in progressive mode, constant otherwise.
+    float passRadius(float initialRadius, uint64_t pass) const;
+    // Fills `data`'s surface map from `photons`, whose paths numbered `emitted`.
+    void setSurfaceMap(PhotonPassData& data, std::vector<Photon> photons, uint64_t emitted,
+                       uint64_t pass) const;
+    // Radiance leaving the non-delta surface `its` towards wi (local), from the surface photons.
+    Color3f reflectedRadiance(const PhotonPassData& data, const Intersection& its, const BSDF& bsdf,
+                              const Vector3f& wi) const;
+    // The surface radius as given or derived from the scene; the diagonal of its bounds (a
+    // default for other radii).
+    float surfaceRadius() const { return m_surfaceRadius; }
+    static float sceneDiagonal(const Scene& scene);
+
+    uint64_t m_photonCount;  // photon paths emitted per photon pass
+    int m_surfaceK;          // 0: fixed radius
+    bool m_progressive;
+    double m_alpha;
+
+  private:
+    float m_surfaceRadius;
+    bool m_surfaceRadiusGiven;
+
+    mutable std::mutex m_cacheMutex;
+    mutable std::shared_ptr<const PhotonPassData> m_cached;
+    mutable uint64_t m_cachedSeed = 0;
+    mutable const Scene* m_cachedScene = nullptr;
+};
+
+}  // namespace alphorn

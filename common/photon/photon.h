@@ -1,6 +1,6 @@
 // A photon: a sample of the flux arriving at a point. Surface photon maps store them where
-// photon paths hit non-delta surfaces; a volume photon map (the beam radiance estimate) will
-// store the same record at scattering events in media, so both maps share this type, the
+// photon paths hit non-delta surfaces; the volume photon map (the beam radiance estimate)
+// stores the same record at scattering events in media, so both maps share this type, the
 // tracer's output and the index structures in this folder.
 #pragma once
 

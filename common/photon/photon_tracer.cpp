@@ -14,17 +14,24 @@ namespace {
 // of the concatenated output) never depends on threads.
 constexpr uint64_t kChunk = 2048;
 
-// Follows one photon path, appending the photons it stores to `out`.
-void tracePhoton(const Scene& scene, Sampler& sampler, std::vector<Photon>& out) {
+// Starts a photon path: an emitter chosen in proportion to its power, then its own emission
+// sample. Returns false when nothing is emitted.
+bool emitPhoton(const Scene& scene, Sampler& sampler, Ray3f& ray, Color3f& flux) {
     float selection = sampler.next1D();
     const Point2f positionSample = sampler.next2D();
     const Point2f directionSample = sampler.next2D();
     float selectionPdf = 0.0f;
     const Emitter* emitter = scene.sampleEmitterByPower(selection, selectionPdf);
-    if (!emitter || !(selectionPdf > 0.0f)) return;
+    if (!emitter || !(selectionPdf > 0.0f)) return false;
+    flux = emitter->samplePhoton(ray, positionSample, directionSample) / selectionPdf;
+    return flux.isValid() && !flux.isBlack();
+}
+
+// Follows one photon path, appending the photons it stores to `out`.
+void tracePhoton(const Scene& scene, Sampler& sampler, std::vector<Photon>& out) {
     Ray3f ray;
-    const Color3f flux = emitter->samplePhoton(ray, positionSample, directionSample) / selectionPdf;
-    if (!flux.isValid() || flux.isBlack()) return;
+    Color3f flux;
+    if (!emitPhoton(scene, sampler, ray, flux)) return;
 
     // Throughput relative to the emitted flux. Russian roulette keeps its largest channel
     // near 1, so the photons of a map carry nearly equal power (the best case for a density
@@ -84,16 +91,9 @@ struct PhotonOutputs {
 // from the light. The throughput carries spectral MIS for chromatic media (see MediumSample).
 void tracePhotonThroughMedia(const Scene& scene, Sampler& sampler,
                              const Eigen::AlignedBox3f& mediaBox, const PhotonOutputs& out) {
-    float selection = sampler.next1D();
-    const Point2f positionSample = sampler.next2D();
-    const Point2f directionSample = sampler.next2D();
-    float selectionPdf = 0.0f;
-    const Emitter* emitter = scene.sampleEmitterByPower(selection, selectionPdf);
-    if (!emitter || !(selectionPdf > 0.0f)) return;
     Ray3f emittedRay;
-    const Color3f flux =
-        emitter->samplePhoton(emittedRay, positionSample, directionSample) / selectionPdf;
-    if (!flux.isValid() || flux.isBlack()) return;
+    Color3f flux;
+    if (!emitPhoton(scene, sampler, emittedRay, flux)) return;
     const float length = emittedRay.d.norm();
     if (!(length > 0.0f)) return;
     // Unit direction: media measure distances in world units.

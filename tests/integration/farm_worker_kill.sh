@@ -4,16 +4,24 @@
 source "$(dirname "$0")/farm_lib.sh"
 
 start_coordinator 127.0.0.1:0 --lease-seconds 1
-export ALPHORN_TEST_UNIT_DELAY_MS=120  # test hook: each unit takes 120 ms longer
+# Test hook: each unit takes this much longer. The victim sits 2 s in each unit, so it is killed
+# while it holds a lease (killed between two units, it would leave no lease to expire: with a
+# short delay that happened in ~3% of runs under load).
+export ALPHORN_TEST_UNIT_DELAY_MS=2000
 start_worker a
 victim=$WORKER_PID
+export ALPHORN_TEST_UNIT_DELAY_MS=120
 start_worker b
 survivor=$WORKER_PID
 unset ALPHORN_TEST_UNIT_DELAY_MS
 
 render_local "$SCENES/farm_normals.xml" "$WORK/local.exr" --seed 3 --passes 8
 job=$("$ALPHORN" submit "$SCENES/farm_normals.xml" --seed 3 --passes 8 --tile 32 2>/dev/null)
-units_done() { (($(job_field "$job" units_done) >= 8)); }
+victim_id=$(sed -n 's/.*event=worker.registered worker=\([0-9]*\) name=a .*/\1/p' "$WORK/coordinator.log" | head -n1)
+[[ -n $victim_id ]] || fail "worker a did not register"
+victim_leased() { grep -q "event=unit.leased job=$job unit=[0-9]* worker=$victim_id " "$WORK/coordinator.log"; }
+units_done() { (($(job_field "$job" units_done) >= 3)); }
+wait_until 30 victim_leased
 wait_until 30 units_done
 kill -9 "$victim"
 pass "killed worker a (pid $victim) with $(job_field "$job" units_done) of $(job_field "$job" units_total) units merged"

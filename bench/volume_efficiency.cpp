@@ -7,8 +7,11 @@
 // crop. An integrator that cannot reach the scene's lights (mats with delta lights) renders
 // black: its efficiency is reported as zero rather than as a division by zero.
 //
+// Each scene also compares volume_path_mis with and without equiangular sampling (volume.h).
+//
 // usage: bench_volume_efficiency [passes] [crop] [SCENE.xml ...]
 #include "common/farm/job_scene.h"
+#include "common/integrator/integrator.h"
 #include "common/render/unit.h"
 #include "common/scene/scene.h"
 
@@ -25,8 +28,14 @@ struct Figures {
     double secondsPerPass = 0, meanVariance = 0, meanValue = 0;
 };
 
-Figures measure(const std::string& path, const std::string& integrator, uint32_t passes, int crop) {
-    std::shared_ptr<Scene> scene = farm::loadJobScene(path, integrator);
+// `props` configure the integrator `integrator` that replaces the scene's.
+Figures measure(const std::string& path, const std::string& integrator, uint32_t passes, int crop,
+                const PropertyList& props = PropertyList("bench")) {
+    std::shared_ptr<Scene> scene = farm::loadJobScene(path, "");
+    auto replacement = std::static_pointer_cast<Integrator>(
+        ObjectFactory::create(ObjectKind::Integrator, integrator, props));
+    replacement->activate();
+    scene->setIntegrator(std::move(replacement));
     const Vector2i size = scene->camera()->outputSize();
     Tile tile;
     tile.x0 = std::max(0, size.x() / 2 - crop / 2);
@@ -94,6 +103,19 @@ int main(int argc, char** argv) {
                         efficiency(mis) / efficiency(mats),
                         mis.secondsPerPass / mats.secondsPerPass,
                         mats.meanVariance / mis.meanVariance);
+        // Equiangular sampling of delta lights in grey homogeneous media: mis with it (the
+        // default) against mis without, in the same run.
+        PropertyList off("bench: equiangular off");
+        off.setBoolean("equiangular", false);
+        const Figures free = measure(path, "volume_path_mis", passes, crop, off);
+        std::printf(
+            "  volume_path_mis, equiangular off %.4f s/pass  variance/pass %.4g  mean %.4g\n",
+            free.secondsPerPass, free.meanVariance, free.meanValue);
+        if (free.meanVariance > 0 && mis.meanVariance > 0)
+            std::printf(
+                "  efficiency equiangular on / off: %.2f (time ratio %.2f, variance ratio %.2f)\n",
+                efficiency(mis) / efficiency(free), mis.secondsPerPass / free.secondsPerPass,
+                free.meanVariance / mis.meanVariance);
     }
     return 0;
 }

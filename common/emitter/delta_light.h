@@ -28,6 +28,7 @@ class DeltaPositionLight : public Emitter {
 
     // Radiant intensity (W/sr) towards the unit world direction `d`.
     virtual Color3f intensity(const Vector3f& d) const = 0;
+    const Point3f& position() const { return m_position; }
 
   protected:
     Point3f m_position = Point3f::Zero();

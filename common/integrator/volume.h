@@ -16,8 +16,11 @@
 // at that box too; enclose fog by a mesh for a well-defined extent.)
 #pragma once
 
+#include "common/emitter/delta_light.h"
 #include "common/integrator/direct.h"
 #include "common/medium/medium.h"
+
+#include <optional>
 
 namespace alphorn {
 
@@ -98,6 +101,88 @@ inline Color3f transmittanceAlong(const Scene& scene, Sampler& sampler, Ray3f ra
     }
 }
 
+// ---- Equiangular sampling (Kulla and Fajardo, "Importance Sampling Techniques for Path Tracing
+// in Participating Media", 2012) ----
+// Free-flight sampling puts scattering points where the medium is dense, not where a light is
+// near: in fog under a spotlight the few next-event estimates taken close to the light carry
+// huge 1/d² weights (fireflies). Equiangular sampling draws a point on the segment with density
+// proportional to 1/(D² + (t − Δ)²) towards a chosen point-like light (uniform in the angle the
+// segment subtends at the light), which cancels the 1/d². The two are combined per light by
+// the balance heuristic; free-flight sampling remains the one that continues the path. Used in
+// grey homogeneous media, whose free-flight density σt e^(−σt t) is known in closed form.
+
+// A segment of a path through one medium: t in [0, end] from `origin` along unit `direction`.
+struct EquiangularSegment {
+    Point3f origin;
+    Vector3f direction;
+    float end;
+    float sigmaT;  // the medium's grey extinction
+};
+
+// A light as seen from a segment: Δ, the parameter of the point closest to it, its distance D
+// from the line, and the angles at the light of the segment's two ends.
+struct EquiangularFrame {
+    float delta, distance, thetaA, thetaB;
+    bool valid;  // false for a light on the line: free-flight sampling alone then
+};
+
+inline EquiangularFrame equiangularFrame(const EquiangularSegment& segment, const Point3f& light) {
+    EquiangularFrame frame;
+    const Vector3f toLight = light - segment.origin;
+    frame.delta = toLight.dot(segment.direction);
+    frame.distance = (toLight - frame.delta * segment.direction).norm();
+    frame.thetaA = std::atan2(-frame.delta, frame.distance);
+    frame.thetaB = std::atan2(segment.end - frame.delta, frame.distance);
+    frame.valid =
+        frame.distance > 1e-6f * (std::abs(frame.delta) + 1.0f) && frame.thetaB > frame.thetaA;
+    return frame;
+}
+
+inline float equiangularPdf(const EquiangularFrame& frame, float t) {
+    if (!frame.valid) return 0.0f;
+    const float x = t - frame.delta;
+    return frame.distance /
+           ((frame.thetaB - frame.thetaA) * (frame.distance * frame.distance + x * x));
+}
+
+// The density with which free-flight sampling scatters at t on the segment.
+inline float freeFlightPdf(const EquiangularSegment& segment, float t) {
+    return segment.sigmaT * std::exp(-segment.sigmaT * t);
+}
+
+// One equiangular estimate of the light that a uniformly chosen point-like light scatters into
+// the segment towards its origin, MIS-weighted against free-flight sampling. Always draws
+// 1D + 1D + 2D numbers (plus what ratio tracking on the shadow ray needs).
+inline Color3f sampleEquiangular(const Scene& scene, Sampler& sampler,
+                                 const EquiangularSegment& segment, const Medium& medium,
+                                 const Color3f& sigmaS, const Eigen::AlignedBox3f& bounds) {
+    float selection = sampler.next1D();
+    const float u = sampler.next1D();
+    const Point2f lightSample = sampler.next2D();
+    float selectionPdf = 0.0f;
+    const auto* light =
+        dynamic_cast<const DeltaPositionLight*>(scene.sampleEmitter(selection, selectionPdf));
+    if (!light || !(selectionPdf > 0.0f)) return Color3f(0.0f);
+    const EquiangularFrame frame = equiangularFrame(segment, light->position());
+    if (!frame.valid) return Color3f(0.0f);
+    const float t = std::clamp(
+        frame.delta + frame.distance * std::tan(frame.thetaA + u * (frame.thetaB - frame.thetaA)),
+        0.0f, segment.end);
+    const float pdf = equiangularPdf(frame, t);
+    if (!(pdf > 0.0f) || !std::isfinite(t)) return Color3f(0.0f);
+
+    EmitterQueryRecord lRec(segment.origin + t * segment.direction);
+    const Color3f radianceOverPdf = light->sample(lRec, lightSample);
+    if (radianceOverPdf.isBlack()) return Color3f(0.0f);
+    const float phase = medium.phase().eval(-segment.direction, lRec.wi);
+    if (!(phase > 0.0f)) return Color3f(0.0f);
+    const Color3f tr = transmittanceAlong(scene, sampler, lRec.shadowRay, &medium, bounds);
+    if (tr.isBlack()) return Color3f(0.0f);
+    const float weight = balanceHeuristic(pdf, freeFlightPdf(segment, t));
+    return sigmaS * std::exp(-segment.sigmaT * t) * phase * tr * radianceOverPdf * weight /
+           (pdf * selectionPdf);
+}
+
 // One light sample for a scattering vertex at `p` in `medium` (phase function) or at a surface
 // (BSDF, `its` non-null), with transmittance through media. Draws 1D + 2D numbers always, plus
 // whatever ratio tracking needs. With `mis` the result carries the balance heuristic weight
@@ -108,6 +193,10 @@ struct ScatteringVertex {
     const BSDF* bsdf = nullptr;         // surface vertices only
     Vector3f wi;                        // world direction back along the path
     const Medium* medium = nullptr;     // the medium the vertex lies in (media vertices)
+    // Media vertices on a segment where equiangular sampling runs too: the segment, and the
+    // vertex's parameter on it (delta lights then share their weight with that strategy).
+    const EquiangularSegment* segment = nullptr;
+    float t = 0.0f;
 };
 
 inline Color3f sampleLightThroughMedia(const Scene& scene, Sampler& sampler,
@@ -144,6 +233,9 @@ inline Color3f sampleLightThroughMedia(const Scene& scene, Sampler& sampler,
 
     Color3f result = f * tr * radianceOverPdf / selectionPdf;
     if (mis && !emitter->isDelta()) result *= balanceHeuristic(lRec.pdf * selectionPdf, scatterPdf);
+    if (emitter->isDelta() && v.segment)
+        result *= balanceHeuristic(freeFlightPdf(*v.segment, v.t),
+                                   equiangularPdf(equiangularFrame(*v.segment, lRec.p), v.t));
     return result;
 }
 
@@ -153,7 +245,8 @@ inline Color3f sampleLightThroughMedia(const Scene& scene, Sampler& sampler,
 // Russian roulette from the fourth scattering vertex on, as in path_mats; no depth cap.
 // `mediaBox` is mediaBounds(scene), computed once per scene by the integrator.
 inline Color3f volumePathLi(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
-                            const Eigen::AlignedBox3f& mediaBox, bool mis) {
+                            const Eigen::AlignedBox3f& mediaBox, bool mis,
+                            bool equiangular = false) {
     Color3f result(0.0f);
     // Throughput under spectral MIS for chromatic media (see MediumSample).
     SpectralThroughput path;
@@ -175,6 +268,15 @@ inline Color3f volumePathLi(const Scene& scene, Sampler& sampler, const Ray3f& c
         const bool hit = scene.rayIntersect(ray, its);
         if (isParticipating(medium)) {
             const float end = hit ? its.t : std::min(ray.maxt, exitDistance(bounds, ray));
+            std::optional<EquiangularSegment> segment;
+            if (equiangular) {
+                const auto grey = medium->greyHomogeneous();
+                if (grey && grey->sigmaT > 0.0f && !grey->sigmaS.isBlack()) {
+                    segment = EquiangularSegment{ray.o, ray.d, end, grey->sigmaT};
+                    result += throughput * sampleEquiangular(scene, sampler, *segment, *medium,
+                                                             grey->sigmaS, bounds);
+                }
+            }
             const MediumSample ms =
                 medium->sampleDistance(Ray3f(ray.o, ray.d), end, sampler, path.hero);
             if (ms.event == MediumSample::Event::Absorbed) break;
@@ -194,6 +296,8 @@ inline Color3f volumePathLi(const Scene& scene, Sampler& sampler, const Ray3f& c
                     v.p = ms.p;
                     v.wi = wi;
                     v.medium = medium;
+                    v.segment = segment ? &*segment : nullptr;
+                    v.t = ms.t;
                     result += throughput * sampleLightThroughMedia(scene, sampler, v, bounds, true);
                 }
                 Vector3f wo;

@@ -4,6 +4,9 @@
 // tracking for heterogeneous ones); emitter hits found by phase/BSDF sampling are weighted
 // against light sampling by the balance heuristic, so direct light counts exactly once. Delta
 // lights (spotlight, projector, point) are reached by light sampling only. See volume.h.
+// In grey homogeneous media, delta lights are also sampled by equiangular sampling along every
+// segment (volume.h), MIS-weighted against the next-event estimates at free-flight scattering
+// points; `equiangular` (default true) turns it off, for comparisons.
 // `progressive` as in volume_path_mats.
 #include "common/integrator/integrator.h"
 #include "common/integrator/volume.h"
@@ -12,19 +15,29 @@ namespace alphorn {
 
 class VolumePathMis : public Integrator {
   public:
-    explicit VolumePathMis(const PropertyList& props) { props.getBoolean("progressive", false); }
+    explicit VolumePathMis(const PropertyList& props)
+        : m_equiangularWanted(props.getBoolean("equiangular", true)) {
+        props.getBoolean("progressive", false);
+    }
 
-    void preprocess(const Scene& scene) override { m_mediaBox = mediaBounds(scene); }
+    void preprocess(const Scene& scene) override {
+        m_mediaBox = mediaBounds(scene);
+        // Only point-like lights gain from it; other scenes draw no extra numbers.
+        m_equiangular = false;
+        for (const auto& emitter : scene.emitters())
+            m_equiangular |= m_equiangularWanted && emitter->isDelta();
+    }
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,
                const PassData*) const override {
-        return volumePathLi(scene, sampler, ray, m_mediaBox, true);
+        return volumePathLi(scene, sampler, ray, m_mediaBox, true, m_equiangular);
     }
 
     std::string toString() const override { return "volume_path_mis integrator"; }
 
   private:
     Eigen::AlignedBox3f m_mediaBox;
+    bool m_equiangularWanted, m_equiangular = false;
 };
 
 ALPHORN_REGISTER(Integrator, "volume_path_mis", VolumePathMis);

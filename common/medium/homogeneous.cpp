@@ -58,6 +58,11 @@ class HomogeneousMedium : public Medium {
 
     bool isVacuum() const override { return m_sigmaT.isBlack(); }
 
+    std::optional<GreyHomogeneous> greyHomogeneous() const override {
+        if (!m_grey) return std::nullopt;
+        return GreyHomogeneous{m_sigmaT[0], m_sigmaS};
+    }
+
     std::string toString() const override {
         return absl::StrFormat("homogeneous medium, sigmaS %s, sigmaA %s", m_sigmaS.toString(),
                                m_sigmaA.toString());

@@ -22,6 +22,8 @@
 #include "common/phase/phase.h"
 #include "common/sampler/sampler.h"
 
+#include <optional>
+
 namespace alphorn {
 
 // The outcome of free-flight sampling along o + t d, t in (0, tMax).
@@ -89,6 +91,14 @@ class Medium : public Object {
     // True for media that never interact (vacuum, or zero density): integrators skip them
     // entirely, drawing no random numbers, so such a medium renders exactly like no medium.
     virtual bool isVacuum() const { return false; }
+    // A homogeneous medium whose extinction is the same in every channel: its free-flight
+    // density sigmaT e^(-sigmaT t) is then known in closed form, which equiangular sampling
+    // needs for its MIS weights (volume.h). Empty for every other medium.
+    struct GreyHomogeneous {
+        float sigmaT;
+        Color3f sigmaS;
+    };
+    virtual std::optional<GreyHomogeneous> greyHomogeneous() const { return std::nullopt; }
 
     const PhaseFunction& phase() const { return *m_phase; }
 

@@ -16,6 +16,7 @@
 // volume photons (volumeK = 10).
 //
 // usage: bench_beam_estimate [SCENE.xml] [photon paths] [rounds]
+#include "bench/timing.h"
 #include "common/core/rng.h"
 #include "common/integrator/volume.h"
 #include "common/photon/photon_tracer.h"
@@ -33,17 +34,10 @@
 #include <string>
 
 using namespace alphorn;
+using bench::median;
+using bench::seconds;
 
 namespace {
-
-double seconds(std::chrono::steady_clock::time_point since) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-}
 
 struct Segment {
     Point3f origin;

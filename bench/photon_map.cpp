@@ -11,6 +11,7 @@
 // ratios measured in the same run are worth comparing.
 //
 // usage: bench_photon_map [SCENE.xml] [photons] [rounds]
+#include "bench/timing.h"
 #include "common/integrator/direct.h"
 #include "common/photon/density_estimate.h"
 #include "common/photon/photon_hash_grid.h"
@@ -31,17 +32,10 @@
 #include <string>
 
 using namespace alphorn;
+using bench::median;
+using bench::seconds;
 
 namespace {
-
-double seconds(std::chrono::steady_clock::time_point since) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-}
 
 // The first non-delta surface point of camera rays through random image positions.
 std::vector<Point3f> queryPoints(const Scene& scene, size_t count) {

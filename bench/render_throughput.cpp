@@ -8,6 +8,7 @@
 // sampling, filtering and accumulation on top of ray traversal.
 //
 // usage: bench_render_throughput [SCENE.xml] [passes] [rounds]
+#include "bench/timing.h"
 #include "common/core/frame.h"
 #include "common/core/rng.h"
 #include "common/core/warp.h"
@@ -23,12 +24,9 @@
 #include <string>
 
 using namespace alphorn;
+using bench::seconds;
 
 namespace {
-
-double seconds(std::chrono::steady_clock::time_point since) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
 
 RTCRayHit makeRayHit(const Point3f& o, const Vector3f& d) {
     RTCRayHit rh;

@@ -85,6 +85,24 @@ void PhotonMappingIntegrator::setSurfaceMap(PhotonPassData& data, std::vector<Ph
     data.surfaceRadius = radius;
 }
 
+std::optional<Vector3f> PhotonMappingIntegrator::followDeltaChain(const Intersection& its,
+                                                                  const Vector3f& wi, int depth,
+                                                                  Sampler& sampler,
+                                                                  Color3f& throughput,
+                                                                  float& etaScale) {
+    if (depth >= 3) {
+        const float q = std::min(throughput.maxCoeff() * etaScale, 0.99f);
+        if (!(sampler.next1D() < q)) return std::nullopt;
+        throughput /= q;
+    }
+    BSDFQueryRecord rec = makeBSDFQuery(its, wi);
+    const Color3f weight = its.mesh->bsdf()->sample(rec, sampler.next2D());
+    if (weight.isBlack() || !weight.allFinite()) return std::nullopt;
+    throughput *= weight;
+    etaScale *= rec.eta * rec.eta;
+    return its.toWorld(rec.wo);
+}
+
 Color3f PhotonMappingIntegrator::reflectedRadiance(const PhotonPassData& data,
                                                    const Intersection& its, const BSDF& bsdf,
                                                    const Vector3f& wi) const {

@@ -13,6 +13,7 @@
 namespace alphorn {
 
 class BSDF;
+class Sampler;
 struct Intersection;
 
 class PhotonMappingIntegrator : public Integrator {
@@ -40,6 +41,14 @@ class PhotonMappingIntegrator : public Integrator {
     // Radiance leaving the non-delta surface `its` towards wi (local), from the surface photons.
     Color3f reflectedRadiance(const PhotonPassData& data, const Intersection& its, const BSDF& bsdf,
                               const Vector3f& wi) const;
+    // One step of a camera path along a chain of delta surfaces (mirrors, glass) at `its`,
+    // seen from local direction `wi`: Russian roulette from the fourth bounce on (`depth`
+    // counts the earlier ones; roulette, not a cap, ends chains between mirrors), then the
+    // BSDF sample. Updates the path's throughput and eta scale and returns the new world
+    // direction (not normalised), or nothing when the path ends.
+    static std::optional<Vector3f> followDeltaChain(const Intersection& its, const Vector3f& wi,
+                                                    int depth, Sampler& sampler,
+                                                    Color3f& throughput, float& etaScale);
     // The surface radius as given or derived from the scene; the diagonal of its bounds (a
     // default for other radii).
     float surfaceRadius() const { return m_surfaceRadius; }

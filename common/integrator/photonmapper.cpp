@@ -45,18 +45,9 @@ class PhotonMapper : public PhotonMappingIntegrator {
                 result += throughput * reflectedRadiance(*data, its, bsdf, wi);
                 break;
             }
-            // A delta chain: follow it. Roulette (not a cap) ends chains between mirrors.
-            if (depth >= 3) {
-                const float q = std::min(throughput.maxCoeff() * etaScale, 0.99f);
-                if (!(sampler.next1D() < q)) break;
-                throughput /= q;
-            }
-            BSDFQueryRecord rec = makeBSDFQuery(its, wi);
-            const Color3f weight = bsdf.sample(rec, sampler.next2D());
-            if (weight.isBlack() || !weight.allFinite()) break;
-            throughput *= weight;
-            etaScale *= rec.eta * rec.eta;
-            ray = Ray3f(its.p, its.toWorld(rec.wo));
+            const auto wo = followDeltaChain(its, wi, depth, sampler, throughput, etaScale);
+            if (!wo) break;
+            ray = Ray3f(its.p, *wo);
         }
         return result;
     }

@@ -116,18 +116,9 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
                 result += throughput * reflectedRadiance(*data, its, bsdf, wi);
                 break;
             }
-            // A delta chain: follow it. Roulette (not a cap) ends chains between mirrors.
-            if (depth++ >= 3) {
-                const float q = std::min(throughput.maxCoeff() * etaScale, 0.99f);
-                if (!(sampler.next1D() < q)) break;
-                throughput /= q;
-            }
-            BSDFQueryRecord rec = makeBSDFQuery(its, wi);
-            const Color3f weight = bsdf.sample(rec, sampler.next2D());
-            if (weight.isBlack() || !weight.allFinite()) break;
-            throughput *= weight;
-            etaScale *= rec.eta * rec.eta;
-            const Vector3f wo = its.toWorld(rec.wo).normalized();
+            const auto next = followDeltaChain(its, wi, depth++, sampler, throughput, etaScale);
+            if (!next) break;
+            const Vector3f wo = next->normalized();
             medium = its.mesh->mediumTowards(its, wo, medium);
             ray = Ray3f(its.p, wo);
         }

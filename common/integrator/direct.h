@@ -54,21 +54,40 @@ inline float emitterSamplingPdf(const Scene& scene, const Point3f& origin, const
     return its.mesh->emitter()->pdf(makeEmitterHitQuery(origin, dir, its)) * scene.emitterPdf();
 }
 
+// One light sample seen from `ref`: an emitter chosen uniformly (Nori's light selection), then
+// its own sample() of a point on it. Always draws one 1D and one 2D number so sample dimensions
+// stay aligned. `emitter` stays null when nothing usable was sampled.
+struct LightSample {
+    const Emitter* emitter = nullptr;
+    float selectionPdf = 0.0f;
+    EmitterQueryRecord rec;
+    Color3f radianceOverPdf = Color3f(0.0f);
+};
+
+inline LightSample sampleLight(const Scene& scene, Sampler& sampler, const Point3f& ref) {
+    float selection = sampler.next1D();
+    const Point2f lightSample = sampler.next2D();
+    LightSample light;
+    light.rec = EmitterQueryRecord(ref);
+    const Emitter* emitter = scene.sampleEmitter(selection, light.selectionPdf);
+    if (!emitter || !(light.selectionPdf > 0.0f)) return light;
+    light.radianceOverPdf = emitter->sample(light.rec, lightSample);
+    if (light.radianceOverPdf.isBlack() || !light.radianceOverPdf.allFinite()) return light;
+    light.emitter = emitter;
+    return light;
+}
+
 // One sample of direct illumination at `its` from a uniformly chosen emitter, with visibility.
 // wiLocal points back towards the previous vertex. With `mis`, the result carries the balance
 // heuristic weight against BSDF sampling (delta lights keep weight 1: BSDF sampling cannot
-// reach them). Always draws one 1D and one 2D number so sample dimensions stay aligned.
+// reach them). Draws what sampleLight() draws.
 inline Color3f sampleDirect(const Scene& scene, Sampler& sampler, const Intersection& its,
                             const BSDF& bsdf, const Vector3f& wiLocal, bool mis) {
-    float selection = sampler.next1D();
-    const Point2f lightSample = sampler.next2D();
-    float selectionPdf = 0.0f;
-    const Emitter* emitter = scene.sampleEmitter(selection, selectionPdf);
-    if (!emitter || !(selectionPdf > 0.0f)) return Color3f(0.0f);
-
-    EmitterQueryRecord lRec(its.p);
-    const Color3f radianceOverPdf = emitter->sample(lRec, lightSample);
-    if (radianceOverPdf.isBlack() || !radianceOverPdf.allFinite()) return Color3f(0.0f);
+    const LightSample light = sampleLight(scene, sampler, its.p);
+    if (!light.emitter) return Color3f(0.0f);
+    const EmitterQueryRecord& lRec = light.rec;
+    const Color3f& radianceOverPdf = light.radianceOverPdf;
+    const float selectionPdf = light.selectionPdf;
 
     BSDFQueryRecord bRec = makeBSDFQuery(its, wiLocal);
     bRec.wo = its.toLocal(lRec.wi);
@@ -79,7 +98,7 @@ inline Color3f sampleDirect(const Scene& scene, Sampler& sampler, const Intersec
     if (scene.rayOccluded(lRec.shadowRay)) return Color3f(0.0f);
 
     Color3f result = f * radianceOverPdf * std::abs(Frame::cosTheta(bRec.wo)) / selectionPdf;
-    if (mis && !emitter->isDelta())
+    if (mis && !light.emitter->isDelta())
         result *= balanceHeuristic(lRec.pdf * selectionPdf, bsdf.pdf(bRec));
     return result;
 }

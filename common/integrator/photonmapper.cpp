@@ -29,8 +29,7 @@ class PhotonMapper : public PhotonMappingIntegrator {
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
                const PassData* passData) const override {
-        const auto* data = dynamic_cast<const PhotonPassData*>(passData);
-        if (!data) fail("photonmapper: Li() needs the pass data of preparePass()");
+        const PhotonPassData& data = photonPassData(passData);
         Color3f result(0.0f), throughput(1.0f);
         float etaScale = 1.0f;
         Ray3f ray = cameraRay;
@@ -42,7 +41,7 @@ class PhotonMapper : public PhotonMappingIntegrator {
             const BSDF& bsdf = *its.mesh->bsdf();
             const Vector3f wi = its.toLocal(-dir);
             if (bsdf.isDiffuse()) {
-                result += throughput * reflectedRadiance(*data, its, bsdf, wi);
+                result += throughput * reflectedRadiance(data, its, bsdf, wi);
                 break;
             }
             const auto wo = followDeltaChain(its, wi, depth, sampler, throughput, etaScale);

@@ -3,6 +3,7 @@
 // than k), and the convergence rate of progressive photon mapping. Its accuracy against closed
 // forms is tested by the Nori-format files tests/statistical/photon_*_ttest.xml.
 #include "common/integrator/integrator.h"
+#include "common/integrator/photon_mapping_testing.h"
 #include "common/photon/photon_pass.h"
 #include "common/photon/radius_schedule.h"
 #include "common/render/local_render.h"
@@ -19,37 +20,11 @@
 namespace alphorn {
 namespace {
 
-const std::string kMeshes = ALPHORN_SOURCE_DIR "/scenes/meshes/";
+using namespace photon_testing;
 
-// The furnace: a closed box of albedo 0.5 emitting radiance 1, seen from its centre looking at
-// the middle of the wall x = 1; radiance is 1/(1 - a) = 2 everywhere.
-const std::string kFurnace =
-    "<camera type=\"perspective\"><transform name=\"toWorld\"><lookat origin=\"0,0,0\" "
-    "target=\"1,0,0\" up=\"0,1,0\"/></transform><float name=\"fov\" value=\"30\"/><integer "
-    "name=\"width\" value=\"4\"/><integer name=\"height\" value=\"4\"/></camera>\n"
-    "<mesh type=\"obj\"><string name=\"filename\" value=\"" +
-    kMeshes +
-    "cube_inward.obj\"/><bsdf type=\"diffuse\"><color name=\"albedo\" value=\"0.5\"/></bsdf>"
-    "<emitter type=\"area\"><color name=\"radiance\" value=\"1\"/></emitter></mesh>";
-
-class PhotonMapperTest : public ::testing::Test {
+class PhotonMapperTest : public PhotonMappingTest {
   protected:
-    void SetUp() override {
-        m_dir = std::filesystem::temp_directory_path() /
-                ("alphorn_photonmapper_test_" + std::to_string(::getpid()));
-        std::filesystem::create_directories(m_dir);
-    }
-    void TearDown() override { std::filesystem::remove_all(m_dir); }
-
-    // The integrator element sits on line 2 of the file, so errors must name "scene.xml:2:".
-    std::shared_ptr<Scene> load(const std::string& integratorParams,
-                                const std::string& body = kFurnace) {
-        const std::string text = "<scene>\n<integrator type=\"photonmapper\">" + integratorParams +
-                                 "</integrator>\n" + body + "\n</scene>\n";
-        const std::filesystem::path path = m_dir / "scene.xml";
-        std::ofstream(path) << text;
-        return loadScene(path.string());
-    }
+    PhotonMapperTest() : PhotonMappingTest("photonmapper") {}
 
     void expectError(const std::string& params, const std::string& fragment) {
         try {
@@ -61,23 +36,7 @@ class PhotonMapperTest : public ::testing::Test {
             EXPECT_NE(message.find(fragment), std::string::npos) << message;
         }
     }
-
-    static const PhotonPassData& passData(const std::shared_ptr<const PassData>& data) {
-        const auto* p = dynamic_cast<const PhotonPassData*>(data.get());
-        if (!p) throw std::runtime_error("not photon pass data");
-        return *p;
-    }
-
-    std::filesystem::path m_dir;
 };
-
-std::string integer(const std::string& name, int value) {
-    return "<integer name=\"" + name + "\" value=\"" + std::to_string(value) + "\"/>";
-}
-std::string floating(const std::string& name, const std::string& value) {
-    return "<float name=\"" + name + "\" value=\"" + value + "\"/>";
-}
-const std::string kProgressive = "<boolean name=\"progressive\" value=\"true\"/>";
 
 TEST_F(PhotonMapperTest, AbsurdParametersAreErrorsNamingFileAndLine) {
     expectError(integer("photonCount", 0), "photonCount");
@@ -159,21 +118,8 @@ TEST_F(PhotonMapperTest, FewerPhotonsThanKUseTheSearchRadius) {
     const auto knnPass = knn->integrator()->preparePass(*knn, 2, 0);
     const auto fixedPass = fixed->integrator()->preparePass(*fixed, 2, 0);
     ASSERT_LT(passData(knnPass).surface.size(), 50u);
-    std::unique_ptr<Sampler> sampler = knn->sampler()->clone();
-    int lit = 0;
-    for (int i = 0; i < 400; ++i) {
-        // Rays from the centre to points spread over the wall x = 1 and beyond.
-        Rng rng(8, 0, i, StreamPurpose::Test);
-        const Vector3f d(1.0f, 2.0f * rng.nextFloat() - 1.0f, 2.0f * rng.nextFloat() - 1.0f);
-        const Ray3f ray(Point3f::Zero(), d.normalized());
-        sampler->startStream(1, 0, i, StreamPurpose::Camera);
-        const Color3f a = knn->integrator()->Li(*knn, *sampler, ray, knnPass.get());
-        sampler->startStream(1, 0, i, StreamPurpose::Camera);
-        const Color3f b = fixed->integrator()->Li(*fixed, *sampler, ray, fixedPass.get());
-        ASSERT_TRUE(a.allFinite());
-        EXPECT_NEAR(a.r(), b.r(), 1e-5f * b.r()) << i;
-        if (a.r() > 1.0f) ++lit;  // emission 1 plus some photons
-    }
+    // emission 1 plus some photons
+    const int lit = countLitWhileComparing(*knn, knnPass.get(), *fixed, fixedPass.get(), 400, 1.0f);
     EXPECT_GT(lit, 20) << "too few rays found photons: the comparison is vacuous";
 }
 

@@ -202,15 +202,12 @@ struct ScatteringVertex {
 inline Color3f sampleLightThroughMedia(const Scene& scene, Sampler& sampler,
                                        const ScatteringVertex& v, const Eigen::AlignedBox3f& bounds,
                                        bool mis) {
-    float selection = sampler.next1D();
-    const Point2f lightSample = sampler.next2D();
-    float selectionPdf = 0.0f;
-    const Emitter* emitter = scene.sampleEmitter(selection, selectionPdf);
-    if (!emitter || !(selectionPdf > 0.0f)) return Color3f(0.0f);
-
-    EmitterQueryRecord lRec(v.p);
-    const Color3f radianceOverPdf = emitter->sample(lRec, lightSample);
-    if (radianceOverPdf.isBlack() || !radianceOverPdf.allFinite()) return Color3f(0.0f);
+    const LightSample light = sampleLight(scene, sampler, v.p);
+    if (!light.emitter) return Color3f(0.0f);
+    const Emitter* emitter = light.emitter;
+    const EmitterQueryRecord& lRec = light.rec;
+    const Color3f& radianceOverPdf = light.radianceOverPdf;
+    const float selectionPdf = light.selectionPdf;
 
     Color3f f;
     float scatterPdf;

@@ -87,8 +87,7 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
                const PassData* passData) const override {
-        const auto* data = dynamic_cast<const PhotonPassData*>(passData);
-        if (!data) fail("volumetric_photonmapper: Li() needs the pass data of preparePass()");
+        const PhotonPassData& data = photonPassData(passData);
         Color3f result(0.0f), throughput(1.0f);
         float etaScale = 1.0f;
         // Unit direction: media measure distances in world units.
@@ -104,7 +103,7 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
             Intersection its;
             const bool hit = walkStraight(scene, ray, bounds, medium, line, its);
             // Beam estimate and emission of null surfaces along the line, then its transmittance.
-            result += throughput * lineRadiance(*data, line, hit ? &its : nullptr, sampler);
+            result += throughput * lineRadiance(data, line, hit ? &its : nullptr, sampler);
             throughput *= line.transmittance;
             if (!hit || throughput.isBlack()) break;
 
@@ -113,7 +112,7 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
             const BSDF& bsdf = *its.mesh->bsdf();
             const Vector3f wi = its.toLocal(-dir);
             if (bsdf.isDiffuse()) {
-                result += throughput * reflectedRadiance(*data, its, bsdf, wi);
+                result += throughput * reflectedRadiance(data, its, bsdf, wi);
                 break;
             }
             const auto next = followDeltaChain(its, wi, depth++, sampler, throughput, etaScale);

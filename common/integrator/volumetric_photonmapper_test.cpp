@@ -4,6 +4,7 @@
 // tested by tests/statistical/volumetric_photonmapper_*_ttest.xml.
 #include "common/core/rng.h"
 #include "common/integrator/integrator.h"
+#include "common/integrator/photon_mapping_testing.h"
 #include "common/photon/photon_pass.h"
 #include "common/photon/radius_schedule.h"
 #include "common/render/local_render.h"
@@ -18,54 +19,14 @@
 namespace alphorn {
 namespace {
 
-const std::string kMeshes = ALPHORN_SOURCE_DIR "/scenes/meshes/";
+using namespace photon_testing;
 
-// The furnace of photonmapper_test.cpp (a closed box of albedo 0.5 emitting radiance 1, the
-// camera at its centre), optionally filled with a medium (the camera's).
-std::string furnace(const std::string& cameraMedium) {
-    return "<camera type=\"perspective\"><transform name=\"toWorld\"><lookat origin=\"0,0,0\" "
-           "target=\"1,0,0\" up=\"0,1,0\"/></transform><float name=\"fov\" value=\"30\"/><integer "
-           "name=\"width\" value=\"4\"/><integer name=\"height\" value=\"4\"/>" +
-           cameraMedium + "</camera>\n<mesh type=\"obj\"><string name=\"filename\" value=\"" +
-           kMeshes +
-           "cube_inward.obj\"/><bsdf type=\"diffuse\"><color name=\"albedo\" value=\"0.5\"/>"
-           "</bsdf><emitter type=\"area\"><color name=\"radiance\" value=\"1\"/></emitter></mesh>";
-}
 const std::string kFog =
     "<medium type=\"homogeneous\"><color name=\"sigmaS\" value=\"1\"/></medium>";
 
-std::string integer(const std::string& name, int value) {
-    return "<integer name=\"" + name + "\" value=\"" + std::to_string(value) + "\"/>";
-}
-std::string floating(const std::string& name, const std::string& value) {
-    return "<float name=\"" + name + "\" value=\"" + value + "\"/>";
-}
-const std::string kProgressive = "<boolean name=\"progressive\" value=\"true\"/>";
-
-class VolumetricPhotonMapperTest : public ::testing::Test {
+class VolumetricPhotonMapperTest : public PhotonMappingTest {
   protected:
-    void SetUp() override {
-        m_dir = std::filesystem::temp_directory_path() /
-                ("alphorn_volumetric_photonmapper_test_" + std::to_string(::getpid()));
-        std::filesystem::create_directories(m_dir);
-    }
-    void TearDown() override { std::filesystem::remove_all(m_dir); }
-
-    std::shared_ptr<Scene> load(const std::string& integratorParams, const std::string& body) {
-        const std::string text = "<scene>\n<integrator type=\"volumetric_photonmapper\">" +
-                                 integratorParams + "</integrator>\n" + body + "\n</scene>\n";
-        const std::filesystem::path path = m_dir / "scene.xml";
-        std::ofstream(path) << text;
-        return loadScene(path.string());
-    }
-
-    static const PhotonPassData& passData(const std::shared_ptr<const PassData>& data) {
-        const auto* p = dynamic_cast<const PhotonPassData*>(data.get());
-        if (!p) throw std::runtime_error("not photon pass data");
-        return *p;
-    }
-
-    std::filesystem::path m_dir;
+    VolumetricPhotonMapperTest() : PhotonMappingTest("volumetric_photonmapper") {}
 };
 
 TEST_F(VolumetricPhotonMapperTest, NoMediumNoVolumeMap) {
@@ -150,20 +111,8 @@ TEST_F(VolumetricPhotonMapperTest, FewerVolumePhotonsThanKUseTheLargestRadius) {
     const auto fixedPass = fixed->integrator()->preparePass(*fixed, 2, 0);
     ASSERT_FALSE(passData(knnPass).volume.empty());
     ASSERT_LT(passData(knnPass).volume.size(), 1000u);
-    std::unique_ptr<Sampler> sampler = knn->sampler()->clone();
-    int lit = 0;
-    for (int i = 0; i < 200; ++i) {
-        Rng rng(8, 0, i, StreamPurpose::Test);
-        const Vector3f d(1.0f, 2.0f * rng.nextFloat() - 1.0f, 2.0f * rng.nextFloat() - 1.0f);
-        const Ray3f ray(Point3f::Zero(), d.normalized());
-        sampler->startStream(1, 0, i, StreamPurpose::Camera);
-        const Color3f a = knn->integrator()->Li(*knn, *sampler, ray, knnPass.get());
-        sampler->startStream(1, 0, i, StreamPurpose::Camera);
-        const Color3f b = fixed->integrator()->Li(*fixed, *sampler, ray, fixedPass.get());
-        ASSERT_TRUE(a.allFinite());
-        EXPECT_NEAR(a.r(), b.r(), 1e-5f * b.r()) << i;
-        if (a.r() > 0.5f) ++lit;  // photons seen: the attenuated emission alone is < 0.37
-    }
+    // photons seen: the attenuated emission alone is < 0.37
+    const int lit = countLitWhileComparing(*knn, knnPass.get(), *fixed, fixedPass.get(), 200, 0.5f);
     EXPECT_GT(lit, 20) << "too few rays lit: the comparison is vacuous";
 }
 

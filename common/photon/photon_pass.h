@@ -3,6 +3,7 @@
 // a pure function of (scene, seed, pass), so every worker that builds it gets the same bytes.
 #pragma once
 
+#include "common/core/error.h"
 #include "common/integrator/integrator.h"
 #include "common/photon/photon_map.h"
 #include "common/photon/volume_photon_map.h"
@@ -21,5 +22,13 @@ struct PhotonPassData : PassData {
     uint64_t volumeEmitted = 0;
     float volumeRadius = 0.0f;  // the pass's fixed radius, or the kNN radii's upper bound
 };
+
+// `data` as photon pass data; an error when it is anything else (e.g. null: a caller that
+// skipped preparePass()).
+inline const PhotonPassData& photonPassData(const PassData* data) {
+    const auto* photons = dynamic_cast<const PhotonPassData*>(data);
+    if (!photons) fail("a photon mapper needs the pass data of its preparePass()");
+    return *photons;
+}
 
 }  // namespace alphorn

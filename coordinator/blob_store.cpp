@@ -3,9 +3,13 @@
 #include "common/core/error.h"
 #include "common/farm/files.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 
 namespace alphorn::coordinator {
@@ -65,13 +69,13 @@ BlobStore::Upload::Upload(const BlobStore& store, std::string claimedSha256)
         (fs::path(store.m_directory) / "incoming" /
          (m_claimed + "." + std::to_string(::getpid()) + "." + std::to_string(++counter)))
             .string();
-    m_file.open(m_temporaryPath, std::ios::binary | std::ios::trunc);
-    if (!m_file) fail("cannot create %s", m_temporaryPath);
+    m_fd = ::open(m_temporaryPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (m_fd < 0) fail("cannot create a file for blob %s: %s", m_claimed, std::strerror(errno));
 }
 
 BlobStore::Upload::~Upload() {
+    if (m_fd >= 0) ::close(m_fd);
     if (!m_committed) {
-        m_file.close();
         std::error_code ignored;
         fs::remove(m_temporaryPath, ignored);
     }
@@ -82,22 +86,37 @@ void BlobStore::Upload::append(std::string_view bytes) {
     if (m_bytes > m_store.m_maxBlobBytes)
         fail("blob %s exceeds the limit of %llu bytes", m_claimed,
              static_cast<unsigned long long>(m_store.m_maxBlobBytes));
+    if (m_fd < 0) fail("blob %s: the upload failed before", m_claimed);
     m_hasher.update(bytes);
-    m_file.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    if (!m_file) fail("cannot write %s", m_temporaryPath);
+    size_t written = 0;
+    while (written < bytes.size()) {
+        const ssize_t n = ::write(m_fd, bytes.data() + written, bytes.size() - written);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) fail("cannot store blob %s: %s", m_claimed, std::strerror(errno));
+        written += size_t(n);
+    }
 }
 
 bool BlobStore::Upload::commit() {
-    m_file.flush();
-    m_file.close();
+    if (m_fd < 0) fail("blob %s: the upload failed before", m_claimed);
     const std::string actual = m_hasher.finishHex();
     if (actual != m_claimed)
         fail("hash mismatch: the blob was sent as %s but its content hashes to %s", m_claimed,
              actual);
-    const std::string target = m_store.pathOf(m_claimed);
-    if (fs::exists(target)) return false;  // fs::remove in the destructor drops the duplicate
-    fs::create_directories(fs::path(target).parent_path());
     // The database records the blob as stored once this returns, so its bytes must be on disk.
+    struct stat info {};
+    const bool synced = ::fsync(m_fd) == 0 && ::fstat(m_fd, &info) == 0;
+    const int error = errno;
+    const bool closed = ::close(m_fd) == 0;
+    m_fd = -1;
+    if (!synced || !closed)
+        fail("cannot store blob %s: %s", m_claimed, std::strerror(synced ? errno : error));
+    if (uint64_t(info.st_size) != m_bytes)
+        fail("cannot store blob %s: %u of its %u bytes reached the disk", m_claimed,
+             uint64_t(info.st_size), m_bytes);
+    const std::string target = m_store.pathOf(m_claimed);
+    if (fs::exists(target)) return false;  // the destructor drops the duplicate
+    fs::create_directories(fs::path(target).parent_path());
     farm::publishFileAtomically(m_temporaryPath, target);
     m_committed = true;
     return true;

@@ -6,7 +6,6 @@
 #include "common/farm/sha256.h"
 
 #include <cstdint>
-#include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
@@ -33,7 +32,9 @@ class BlobStore {
     // Deletes a stored blob; absent is not an error.
     void remove(const std::string& sha256);
 
-    // One upload in progress. Throws Error on too many bytes; commit() throws on a hash mismatch.
+    // One upload in progress. Throws Error on too many bytes or a failed write (a full disk);
+    // commit() throws on a hash mismatch or when the bytes did not all reach the disk, so a
+    // blob is published only after a complete write, fsync and close.
     class Upload {
       public:
         Upload(const BlobStore& store, std::string claimedSha256);
@@ -45,7 +46,7 @@ class BlobStore {
       private:
         const BlobStore& m_store;
         std::string m_claimed, m_temporaryPath;
-        std::ofstream m_file;
+        int m_fd = -1;
         farm::Sha256 m_hasher;
         uint64_t m_bytes = 0;
         bool m_committed = false;

@@ -13,9 +13,14 @@
 #include "coordinator/log.h"
 
 #include <absl/strings/str_replace.h>
+#include <openssl/crypto.h>
+#include <openssl/evp.h>
+#include <openssl/hmac.h>
 #include <openssl/rand.h>
+#include <unistd.h>
 #include <zstd.h>
 
+#include <cstring>
 #include <filesystem>
 
 namespace alphorn::coordinator {
@@ -39,18 +44,72 @@ uint64_t randomLeaseBase() {
     return (base >> 2) + 1;
 }
 
+// The database's path, after checking that it was not lost: an empty or missing database next
+// to job directories would start with no jobs and hand out their ids again, deleting films.
+std::string checkedDatabasePath(const std::string& stateDirectory) {
+    const fs::path database = fs::path(stateDirectory) / "state.sqlite";
+    std::error_code error;
+    const uint64_t size = fs::exists(database) ? fs::file_size(database, error) : 0;
+    if (size == 0 && !error && fs::is_directory(fs::path(stateDirectory) / "jobs")) {
+        size_t jobs = 0;
+        for (const auto& entry : fs::directory_iterator(fs::path(stateDirectory) / "jobs")) {
+            (void)entry;
+            ++jobs;
+        }
+        if (jobs > 0)
+            fail(
+                "%s is %s but %s/jobs holds %u job directories: the database was lost or "
+                "truncated. Restore it from a backup, or move the state directory away to start "
+                "afresh",
+                database.string(), fs::exists(database) ? "empty" : "missing", stateDirectory,
+                jobs);
+    }
+    return database.string();
+}
+
+uint64_t physicalMemoryBytes() {
+    return uint64_t(::sysconf(_SC_PHYS_PAGES)) * uint64_t(::sysconf(_SC_PAGE_SIZE));
+}
+
+std::string mebibytes(uint64_t bytes) {
+    return absl::StrFormat("%.0f MiB", double(bytes) / (1 << 20));
+}
+
 }  // namespace
+
+uint64_t Coordinator::jobMemoryBytes(int width, int height, uint64_t unitCount) {
+    // Per unit: its slot, its merged flag and a node of the pending set (measured sizes of the
+    // standard containers are 40-48 bytes a node).
+    constexpr uint64_t kPendingNode = 48;
+    return uint64_t(width) * uint64_t(height) * sizeof(PixelSum) +
+           unitCount * (sizeof(UnitSlot) + kPendingNode + 1);
+}
 
 Coordinator::Coordinator(CoordinatorOptions options)
     : m_options(std::move(options)),
-      m_db((fs::create_directories(m_options.stateDirectory),
-            m_options.stateDirectory + "/state.sqlite")),
+      m_lock(m_options.stateDirectory),
+      m_db(checkedDatabasePath(m_options.stateDirectory)),
       m_blobs(m_options.stateDirectory + "/blobs", m_options.maxBlobBytes),
       m_nextLeaseId(randomLeaseBase()) {
+    if (m_options.maxMemoryBytes == 0) m_options.maxMemoryBytes = physicalMemoryBytes() / 2;
     fs::create_directories(fs::path(m_options.stateDirectory) / "jobs");
     fs::create_directories(fs::path(m_options.stateDirectory) / "tmp");
     for (const auto& entry : fs::directory_iterator(fs::path(m_options.stateDirectory) / "tmp"))
         fs::remove_all(entry.path());
+    // Lease tokens are signed with a key kept in the database and name this process's epoch,
+    // so a later process can tell which leases it may re-adopt (those of earlier processes).
+    const auto epochRows = m_db.query("SELECT value FROM meta WHERE key = 'epoch'");
+    m_epoch = epochRows.empty() ? 1 : uint64_t(StateDatabase::integer(epochRows[0][0])) + 1;
+    m_db.execute("INSERT OR REPLACE INTO meta(key, value) VALUES('epoch', ?)", {int64_t(m_epoch)});
+    const auto keyRows = m_db.query("SELECT value FROM meta WHERE key = 'lease_key'");
+    if (!keyRows.empty()) m_leaseKey = StateDatabase::text(keyRows[0][0]);
+    if (m_leaseKey.size() != 32) {
+        m_leaseKey.assign(32, '\0');
+        if (RAND_bytes(reinterpret_cast<unsigned char*>(m_leaseKey.data()), 32) != 1)
+            fail("cannot generate the lease key (OpenSSL)");
+        m_db.execute("INSERT OR REPLACE INTO meta(key, value) VALUES('lease_key', ?)",
+                     {m_leaseKey});
+    }
     resume();
 }
 
@@ -63,6 +122,7 @@ std::string Coordinator::jobDirectory(uint64_t jobId) const {
 }
 
 void Coordinator::resume() {
+    const double now = wallSeconds();
     for (const auto& row :
          m_db.query("SELECT id, name, cores, memory_bytes, version FROM workers")) {
         WorkerRecord worker;
@@ -72,64 +132,41 @@ void Coordinator::resume() {
         worker.info.set_memory_bytes(StateDatabase::integer(row[3]));
         worker.info.set_version(StateDatabase::text(row[4]));
         worker.lastSeen = Clock::now() - std::chrono::hours(24 * 365);
+        worker.lastContactWall = now;  // forgotten after the keep time unless it calls
         m_workers[worker.info.worker_id()] = std::move(worker);
     }
+    const std::string database = m_options.stateDirectory + "/state.sqlite";
     for (const auto& row : m_db.query("SELECT id, description, state, error, width, height, "
                                       "filter_border, created_at, finished_at FROM jobs")) {
         auto job = std::make_unique<Job>();
         job->id = StateDatabase::integer(row[0]);
-        job->description.ParseFromString(StateDatabase::text(row[1]));
         job->state = static_cast<v1::JobState>(StateDatabase::integer(row[2]));
         job->error = StateDatabase::text(row[3]);
-        const int width = static_cast<int>(StateDatabase::integer(row[4]));
-        const int height = static_cast<int>(StateDatabase::integer(row[5]));
-        job->filterBorder = static_cast<int>(StateDatabase::integer(row[6]));
-        job->createdAt = std::get<double>(row[7]);
+        if (const double* createdAt = std::get_if<double>(&row[7])) job->createdAt = *createdAt;
         if (const double* finishedAt = std::get_if<double>(&row[8])) job->finishedAt = *finishedAt;
-        const v1::JobSettings& settings = job->description.settings();
-        job->grid = farm::JobGrid(width, height, int(settings.tile_size()), settings.passes(),
-                                  settings.passes_per_unit());
-        const uint32_t unitCount = job->grid.unitCount();
-        job->units.resize(unitCount);
-        job->merged.assign(unitCount, false);
-        const std::string checkpointPath = jobDirectory(job->id) + "/film.ckpt";
-        const bool needsFilm =
-            job->state == v1::JOB_STATE_RUNNING || job->state == v1::JOB_STATE_DONE;
-        if (needsFilm && fs::exists(checkpointPath)) {
-            try {
-                Checkpoint checkpoint = readCheckpoint(checkpointPath, width, height, unitCount);
-                job->merged = std::move(checkpoint.merged);
-                if (job->state == v1::JOB_STATE_RUNNING) job->film = std::move(checkpoint.film);
-            } catch (const Error& e) {
-                logWarning("checkpoint.unreadable",
-                           {field("job", job->id), field("error", e.what())});
-                if (job->state == v1::JOB_STATE_DONE) job->state = v1::JOB_STATE_RUNNING;
+        try {
+            resumeJob(*job, StateDatabase::text(row[1]), int(StateDatabase::integer(row[4])),
+                      int(StateDatabase::integer(row[5])), int(StateDatabase::integer(row[6])));
+        } catch (const std::exception& e) {
+            // One damaged record fails its job, never the coordinator or the other jobs.
+            const std::string message =
+                absl::StrFormat("cannot resume job %u from %s: %s", job->id, database, e.what());
+            logWarning("job.unresumable", {field("job", job->id), field("error", message)});
+            job->grid = farm::JobGrid();
+            job->units.clear();
+            job->merged.clear();
+            job->pending.clear();
+            job->film = FilmBlock();
+            job->mergedCount = 0;
+            if (job->state == v1::JOB_STATE_RUNNING || job->state == v1::JOB_STATE_DONE) {
+                job->state = v1::JOB_STATE_FAILED;
+                job->error = message;
+                job->finishedAt = now;
+                m_db.execute("UPDATE jobs SET state = ?, error = ?, finished_at = ? WHERE id = ?",
+                             {int64_t(job->state), message, now, int64_t(job->id)});
             }
         }
-        for (uint32_t i = 0; i < unitCount; ++i)
-            if (job->merged[i]) {
-                job->units[i].state = UnitState::Merged;
-                ++job->mergedCount;
-            }
-        job->checkpointedCount = job->mergedCount;
-        if (job->state == v1::JOB_STATE_RUNNING) {
-            if (job->film.width() == 0) job->film = FilmBlock(0, 0, width, height);
-            job->restored = job->mergedCount;
-            for (const auto& unitRow :
-                 m_db.query("SELECT unit_index, attempts, last_error FROM units WHERE job_id = ?",
-                            {int64_t(job->id)})) {
-                const auto index = static_cast<uint32_t>(StateDatabase::integer(unitRow[0]));
-                if (index >= unitCount) continue;
-                job->units[index].attempts =
-                    static_cast<uint32_t>(StateDatabase::integer(unitRow[1]));
-                job->units[index].lastError = StateDatabase::text(unitRow[2]);
-                job->attemptsFailed += job->units[index].attempts;
-            }
-            for (uint32_t i = 0; i < unitCount; ++i)
-                if (!job->merged[i]) job->pending.insert(i);
-            logInfo("job.resumed", {field("job", job->id), field("units_restored", job->restored),
-                                    field("units_total", unitCount)});
-        }
+        m_memoryInUse += job->memoryBytes;
         m_jobs[job->id] = std::move(job);
     }
     // A job whose last unit was merged but whose end was not recorded before a crash.
@@ -141,6 +178,71 @@ void Coordinator::resume() {
         job->completing = true;
         finishJob(*job);
     }
+}
+
+void Coordinator::resumeJob(Job& job, const std::string& description, int width, int height,
+                            int filterBorder) {
+    if (!job.description.ParseFromString(description))
+        fail("its description is not a valid alphorn.v1.JobDescription");
+    // The id is the row's; descriptions stored before it was known carry 0.
+    job.description.set_job_id(job.id);
+    if (job.state < v1::JOB_STATE_RUNNING || job.state > v1::JOB_STATE_CANCELLED)
+        fail("state %d is not a job state", int(job.state));
+    if (filterBorder < 0 || filterBorder > 1024) fail("filter border %d is invalid", filterBorder);
+    const v1::JobSettings& settings = job.description.settings();
+    job.filterBorder = filterBorder;
+    job.grid = farm::JobGrid(width, height, int(settings.tile_size()), settings.passes(),
+                             settings.passes_per_unit());
+    const uint32_t unitCount = job.grid.unitCount();
+    job.units.resize(unitCount);
+    job.merged.assign(unitCount, false);
+    for (const auto& unitRow :
+         m_db.query("SELECT unit_index, attempts, last_error FROM units WHERE job_id = ?",
+                    {int64_t(job.id)})) {
+        const auto index = static_cast<uint64_t>(StateDatabase::integer(unitRow[0]));
+        if (index >= unitCount) continue;
+        job.units[index].attempts = static_cast<uint32_t>(StateDatabase::integer(unitRow[1]));
+        job.units[index].lastError = StateDatabase::text(unitRow[2]);
+        job.attemptsFailed += job.units[index].attempts;
+    }
+    if (job.state != v1::JOB_STATE_RUNNING && job.state != v1::JOB_STATE_DONE) return;
+    const std::string checkpointPath = jobDirectory(job.id) + "/film.ckpt";
+    std::string problem;
+    if (!fs::exists(checkpointPath)) {
+        if (job.state == v1::JOB_STATE_DONE) problem = "its final checkpoint is missing";
+    } else {
+        try {
+            Checkpoint checkpoint = readCheckpoint(checkpointPath, width, height, unitCount);
+            job.merged = std::move(checkpoint.merged);
+            if (job.state == v1::JOB_STATE_RUNNING) job.film = std::move(checkpoint.film);
+        } catch (const Error& e) {
+            problem = e.what();
+        }
+    }
+    if (!problem.empty()) {
+        // Every unit is a pure function of the job, so rendering again gives the same bytes.
+        logWarning("checkpoint.unreadable", {field("job", job.id), field("error", problem),
+                                             field("action", "rendering it again")});
+        job.merged.assign(unitCount, false);
+        job.state = v1::JOB_STATE_RUNNING;
+        job.finishedAt = 0;
+        m_db.execute("UPDATE jobs SET state = ?, finished_at = NULL WHERE id = ?",
+                     {int64_t(job.state), int64_t(job.id)});
+    }
+    for (uint32_t i = 0; i < unitCount; ++i)
+        if (job.merged[i]) {
+            job.units[i].state = UnitState::Merged;
+            ++job.mergedCount;
+        }
+    job.checkpointedCount = job.mergedCount;
+    if (job.state != v1::JOB_STATE_RUNNING) return;
+    if (job.film.width() == 0) job.film = FilmBlock(0, 0, width, height);
+    job.memoryBytes = jobMemoryBytes(width, height, unitCount);
+    job.restored = job.mergedCount;
+    for (uint32_t i = 0; i < unitCount; ++i)
+        if (!job.merged[i]) job.pending.insert(i);
+    logInfo("job.resumed", {field("job", job.id), field("units_restored", job.restored),
+                            field("units_total", unitCount)});
 }
 
 void Coordinator::start() {
@@ -217,6 +319,7 @@ void Coordinator::pruneFinishedJobs(double wallNow) {
     std::vector<uint64_t> removed;
     std::set<std::string> referenced;
     std::unordered_map<std::string, double> touchedAt;
+    std::vector<uint64_t> forgottenWorkers;
     {
         std::lock_guard lock(m_mutex);
         for (auto it = m_jobs.begin(); it != m_jobs.end();) {
@@ -235,6 +338,16 @@ void Coordinator::pruneFinishedJobs(double wallNow) {
         }
         for (auto& [id, worker] : m_workers)
             for (uint64_t jobId : removed) worker.lastChunk.erase(jobId);
+        // Workers that have not called for the keep time are forgotten (each restart of a
+        // worker registers a new id, so the table would grow without bound).
+        for (auto it = m_workers.begin(); it != m_workers.end();) {
+            if (it->second.leases.empty() && it->second.lastContactWall + keep <= wallNow) {
+                forgottenWorkers.push_back(it->first);
+                it = m_workers.erase(it);
+            } else {
+                ++it;
+            }
+        }
         std::erase_if(m_blobsTouchedAt,
                       [&](const auto& entry) { return entry.second + keep <= wallNow; });
         touchedAt = m_blobsTouchedAt;
@@ -246,6 +359,10 @@ void Coordinator::pruneFinishedJobs(double wallNow) {
         fs::remove_all(jobDirectory(jobId), ignored);
         logInfo("job.removed",
                 {field("job", jobId), field("kept_hours", absl::StrFormat("%.4g", keep / 3600))});
+    }
+    for (uint64_t workerId : forgottenWorkers) {
+        m_db.execute("DELETE FROM workers WHERE id = ?", {int64_t(workerId)});
+        logInfo("worker.forgotten", {field("worker", workerId)});
     }
     uint64_t blobCount = 0, blobBytes = 0;
     for (const BlobStore::StoredBlob& blob : m_blobs.list()) {
@@ -319,6 +436,8 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
         settings.set_passes_per_unit(static_cast<uint32_t>(
             std::max<uint64_t>(m_options.defaultPassesPerUnit, std::min(bySamples, byPreview))));
     }
+    // A unit never spans more passes than the job has (the image does not depend on it).
+    settings.set_passes_per_unit(std::min(settings.passes_per_unit(), settings.passes()));
     if (settings.name().empty()) settings.set_name(fs::path(bundle.scenePath).stem().string());
     const std::optional<RadiusSchedule> radiusSchedule = scene->integrator()->radiusSchedule();
     const int filterBorder = -makeUnitBlock(*scene, Tile{0, 0, 1, 1}).x0();
@@ -343,6 +462,25 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     } catch (const Error& e) {
         refuse(Kind::InvalidArgument, e.what());
     }
+    if (grid.unitCount() == 0) refuse(Kind::InvalidArgument, "the job would have no units");
+    const uint64_t memory = jobMemoryBytes(size.x(), size.y(), grid.unitCount());
+    {
+        std::lock_guard lock(m_mutex);
+        if (m_memoryInUse + memory > m_options.maxMemoryBytes)
+            refuse(Kind::ResourceExhausted,
+                   absl::StrFormat(
+                       "the job needs about %s of coordinator memory (a %dx%d film and %u units; "
+                       "larger tiles or more passes per unit need fewer units); running jobs "
+                       "hold %s of the %s allowed (--max-memory)",
+                       mebibytes(memory), size.x(), size.y(), grid.unitCount(),
+                       mebibytes(m_memoryInUse), mebibytes(m_options.maxMemoryBytes)));
+        // Reserved now, so concurrent submissions cannot overshoot together.
+        m_memoryInUse += memory;
+    }
+    auto release = [&] {
+        std::lock_guard lock(m_mutex);
+        m_memoryInUse -= memory;
+    };
 
     auto job = std::make_unique<Job>();
     job->description.mutable_bundle()->CopyFrom(request.bundle());
@@ -353,16 +491,38 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
         schedule.set_alpha(radiusSchedule->alpha);
     }
     job->createdAt = wallSeconds();
-    const auto rows = m_db.query(
-        "INSERT INTO jobs(description, state, width, height, filter_border, created_at) VALUES(?, "
-        "?, ?, ?, ?, ?) "
-        "RETURNING id",
-        {job->description.SerializeAsString(), int64_t(v1::JOB_STATE_RUNNING), int64_t(size.x()),
-         int64_t(size.y()), int64_t(filterBorder), job->createdAt});
-    job->id = static_cast<uint64_t>(StateDatabase::integer(rows.at(0).at(0)));
+    try {
+        const auto rows = m_db.query(
+            "INSERT INTO jobs(description, state, width, height, filter_border, created_at) "
+            "VALUES(?, ?, ?, ?, ?, ?) RETURNING id",
+            {job->description.SerializeAsString(), int64_t(v1::JOB_STATE_RUNNING),
+             int64_t(size.x()), int64_t(size.y()), int64_t(filterBorder), job->createdAt});
+        job->id = static_cast<uint64_t>(StateDatabase::integer(rows.at(0).at(0)));
+    } catch (const Error& e) {
+        release();
+        refuse(Kind::ResourceExhausted, absl::StrFormat("cannot record the job: %s", e.what()));
+    }
     job->description.set_job_id(job->id);
-    fs::remove_all(jobDirectory(job->id));
-    fs::rename(staging, jobDirectory(job->id));
+    try {
+        // The stored description carries its id too, so workers told of a resumed job load
+        // that job's scene and no other.
+        m_db.execute("UPDATE jobs SET description = ? WHERE id = ?",
+                     {job->description.SerializeAsString(), int64_t(job->id)});
+        // A directory for a new id means the database lost jobs: never delete their films.
+        if (fs::exists(jobDirectory(job->id)))
+            fail("%s exists already although the database had no job %u", jobDirectory(job->id),
+                 job->id);
+        fs::rename(staging, jobDirectory(job->id));
+    } catch (const std::exception& e) {
+        release();
+        try {
+            m_db.execute("DELETE FROM jobs WHERE id = ?", {int64_t(job->id)});
+        } catch (const Error&) {
+            // The row stays; resume() fails that job with a clear error instead.
+        }
+        refuse(Kind::ResourceExhausted, absl::StrFormat("cannot store the job: %s", e.what()));
+    }
+    job->memoryBytes = memory;
     job->grid = grid;
     job->filterBorder = filterBorder;
     job->film = FilmBlock(0, 0, size.x(), size.y());
@@ -393,6 +553,11 @@ v1::JobStatus Coordinator::statusLocked(const Job& job) const {
     *status.mutable_settings() = job.description.settings();
     status.set_state(job.state);
     status.set_error(job.error);
+    if (job.state == v1::JOB_STATE_RUNNING && !job.checkpointError.empty())
+        status.set_error(absl::StrFormat(
+            "cannot write the checkpoint (%s); retrying every %.3g s",
+            absl::StrReplaceAll(job.checkpointError, {{m_options.stateDirectory + "/", ""}}),
+            m_options.checkpointIntervalSeconds));
     status.set_width(job.grid.width());
     status.set_height(job.grid.height());
     status.set_units_total(job.grid.unitCount());
@@ -469,9 +634,14 @@ void Coordinator::endJobLocked(Job& job, v1::JobState state, const std::string& 
             slot.state = UnitState::Pending;
         }
     job.finishedAt = wallSeconds();
+    m_memoryInUse -= job.memoryBytes;
+    job.memoryBytes = 0;
+    job.checkpointError.clear();
+    if (state != v1::JOB_STATE_DONE) job.film = FilmBlock();
+    // Memory first, database last: if the write fails (a full disk) the job has ended in this
+    // process, and a restart finds it as the database says (a finished film is finished again).
     m_db.execute("UPDATE jobs SET state = ?, error = ?, finished_at = ? WHERE id = ?",
                  {int64_t(state), error, job.finishedAt, int64_t(job.id)});
-    if (state != v1::JOB_STATE_DONE) job.film = FilmBlock();
     (state == v1::JOB_STATE_DONE ? logInfo : logWarning)(
         "job.ended",
         {field("job", job.id), field("state", farm::jobStateName(state)), field("error", error),
@@ -542,6 +712,7 @@ uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
     worker.info.set_memory_bytes(request.memory_bytes());
     worker.info.set_version(request.version());
     worker.lastSeen = Clock::now();
+    worker.lastContactWall = wallSeconds();
     logInfo("worker.registered",
             {field("worker", id), field("name", request.name()), field("cores", request.cores()),
              field("version", request.version())});
@@ -552,7 +723,31 @@ Coordinator::WorkerRecord* Coordinator::touchWorkerLocked(uint64_t workerId) {
     auto it = m_workers.find(workerId);
     if (it == m_workers.end()) return nullptr;
     it->second.lastSeen = Clock::now();
+    it->second.lastContactWall = wallSeconds();
     return &it->second;
+}
+
+std::string Coordinator::leaseToken(uint64_t epoch, uint64_t leaseId, uint64_t workerId,
+                                    uint64_t jobId, uint32_t unitIndex) const {
+    uint64_t fields[5] = {epoch, leaseId, workerId, jobId, unitIndex};
+    unsigned char mac[EVP_MAX_MD_SIZE];
+    unsigned int macSize = 0;
+    HMAC(EVP_sha256(), m_leaseKey.data(), int(m_leaseKey.size()),
+         reinterpret_cast<const unsigned char*>(fields), sizeof fields, mac, &macSize);
+    std::string token(reinterpret_cast<const char*>(&epoch), sizeof epoch);
+    token.append(reinterpret_cast<const char*>(mac), macSize);
+    return token;
+}
+
+bool Coordinator::leaseTokenValid(const std::string& token, uint64_t leaseId, uint64_t workerId,
+                                  uint64_t jobId, uint32_t unitIndex) const {
+    uint64_t epoch = 0;
+    if (token.size() < sizeof epoch) return false;
+    std::memcpy(&epoch, token.data(), sizeof epoch);
+    if (epoch >= m_epoch) return false;  // this process's own leases are never re-adopted
+    const std::string expected = leaseToken(epoch, leaseId, workerId, jobId, unitIndex);
+    return token.size() == expected.size() &&
+           CRYPTO_memcmp(token.data(), expected.data(), token.size()) == 0;
 }
 
 std::vector<v1::WorkerInfo> Coordinator::listWorkers(bool includeDead) {
@@ -606,6 +801,7 @@ v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId, Clock::time_poin
             *response.mutable_unit() = farm::toProto(best->id, index, best->grid.unit(index));
             *response.mutable_job() = best->description;
             response.set_lease_seconds(m_options.leaseSeconds);
+            response.set_lease_token(leaseToken(m_epoch, slot.leaseId, workerId, best->id, index));
             return response;
         }
         if (m_workAvailable.wait_until(lock, until) == std::cv_status::timeout) {
@@ -661,11 +857,14 @@ v1::HeartbeatResponse Coordinator::heartbeat(const v1::HeartbeatRequest& request
         auto it = m_leases.find(leaseId);
         bool valid = false;
         if (it == m_leases.end() && i < request.held_units_size()) {
-            // A lease this process never granted (it was granted before a restart): re-adopt the
-            // unit if it is still waiting, so the worker's render is not thrown away.
+            // A lease granted to this worker by an earlier coordinator process (the token says
+            // so): re-adopt the unit if it is still waiting, so the worker's render is not
+            // thrown away. Invented leases and leases that expired in this process are fenced.
             const v1::HeldUnit& held = request.held_units(i);
             auto job = m_jobs.find(held.job_id());
             if (job != m_jobs.end() && job->second->state == v1::JOB_STATE_RUNNING &&
+                leaseTokenValid(held.lease_token(), leaseId, request.worker_id(), held.job_id(),
+                                held.unit_index()) &&
                 held.unit_index() < job->second->grid.unitCount() &&
                 job->second->units[held.unit_index()].state == UnitState::Pending) {
                 UnitSlot& slot = job->second->units[held.unit_index()];
@@ -883,11 +1082,24 @@ void Coordinator::finishJob(Job& job) {
         count = job.mergedCount;
     }
     // The final film is on disk before the job is reported done.
-    writeJobCheckpoint(job, film, merged, count);
+    bool written = false;
+    try {
+        writeJobCheckpoint(job, film, merged, count);
+        written = true;
+    } catch (const std::exception& e) {
+        logWarning("checkpoint.failed",
+                   {field("job", job.id), field("final", "yes"), field("error", e.what())});
+    }
     std::lock_guard lock(m_mutex);
-    if (job.state == v1::JOB_STATE_RUNNING) endJobLocked(job, v1::JOB_STATE_DONE, "");
+    if (written && job.state == v1::JOB_STATE_RUNNING) {
+        try {
+            endJobLocked(job, v1::JOB_STATE_DONE, "");
+        } catch (const std::exception& e) {
+            logWarning("job.end_not_recorded", {field("job", job.id), field("error", e.what())});
+        }
+        job.film = FilmBlock();  // served from the checkpoint from now on; memory stays flat
+    }
     job.completing = false;
-    job.film = FilmBlock();  // served from the checkpoint from now on; memory stays flat
 }
 
 void Coordinator::writeJobCheckpoint(Job& job, const FilmBlock& film,
@@ -899,8 +1111,15 @@ void Coordinator::writeJobCheckpoint(Job& job, const FilmBlock& film,
         if (count < job.checkpointedCount || (count == job.checkpointedCount && count > 0)) return;
     }
     const auto start = Clock::now();
-    writeCheckpoint(jobDirectory(job.id) + "/film.ckpt", film, merged);
+    try {
+        writeCheckpoint(jobDirectory(job.id) + "/film.ckpt", film, merged);
+    } catch (const std::exception& e) {
+        std::lock_guard lock(m_mutex);
+        job.checkpointError = e.what();
+        throw;
+    }
     std::lock_guard lock(m_mutex);
+    job.checkpointError.clear();
     job.checkpointedCount = count;
     ++job.checkpointsWritten;
     logInfo("checkpoint.written",
@@ -919,14 +1138,21 @@ void Coordinator::checkpointDirtyJobs() {
         std::vector<bool> merged;
         uint32_t count;
     };
-    std::vector<Job*> dirty;
+    std::vector<Job*> dirty, complete;
     {
         std::lock_guard lock(m_mutex);
-        for (auto& [id, job] : m_jobs)
-            if (job->state == v1::JOB_STATE_RUNNING && !job->completing &&
-                job->mergedCount > job->checkpointedCount)
+        for (auto& [id, job] : m_jobs) {
+            if (job->state != v1::JOB_STATE_RUNNING || job->completing) continue;
+            if (job->mergedCount == job->grid.unitCount()) {
+                // Its final checkpoint failed before: try again.
+                job->completing = true;
+                complete.push_back(job.get());
+            } else if (job->mergedCount > job->checkpointedCount) {
                 dirty.push_back(job.get());
+            }
+        }
     }
+    for (Job* job : complete) finishJob(*job);
     // One job at a time, so at most one extra film copy is in memory.
     for (Job* job : dirty) {
         Pending pending{job, {}, {}, 0};
@@ -939,7 +1165,7 @@ void Coordinator::checkpointDirtyJobs() {
         }
         try {
             writeJobCheckpoint(*job, pending.film, pending.merged, pending.count);
-        } catch (const Error& e) {
+        } catch (const std::exception& e) {
             logWarning("checkpoint.failed", {field("job", job->id), field("error", e.what())});
         }
     }

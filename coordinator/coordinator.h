@@ -10,6 +10,7 @@
 #include "common/render/film.h"
 #include "coordinator/blob_store.h"
 #include "coordinator/state_db.h"
+#include "coordinator/state_lock.h"
 
 #include <chrono>
 #include <condition_variable>
@@ -37,6 +38,9 @@ struct CoordinatorOptions {
     // How long an ended job (done, failed, cancelled) stays fetchable before its record, films
     // and bundle are removed, together with blobs no remaining job uses; 0 keeps everything.
     double keepFinishedSeconds = 7 * 24 * 3600.0;
+    // Memory the running jobs' films and unit tables may take together; a job that would exceed
+    // it is refused at submit. 0: half of the machine's physical memory.
+    uint64_t maxMemoryBytes = 0;
 };
 
 // An error with the kind of status the client should see.
@@ -49,7 +53,8 @@ class FarmError : public Error {
 
 class Coordinator {
   public:
-    // Opens the state directory and resumes every job found in it.
+    // Locks and opens the state directory and resumes every job found in it. Throws Error when
+    // another coordinator holds the directory or its database was lost while jobs remain.
     explicit Coordinator(CoordinatorOptions options);
     ~Coordinator();
 
@@ -91,6 +96,9 @@ class Coordinator {
     // within that time. The background thread calls it every minute; public for tests.
     void pruneFinishedJobs(double wallNow);
 
+    // Coordinator memory a running job takes: its whole-image film plus per-unit bookkeeping.
+    static uint64_t jobMemoryBytes(int width, int height, uint64_t unitCount);
+
     // Upper bound on a unit result's compressed size (for refusing oversized streams early).
     uint64_t maxResultBytes(uint64_t jobId) const;
 
@@ -123,11 +131,16 @@ class Coordinator {
         std::optional<std::chrono::steady_clock::time_point> firstMergeAt;
         uint64_t samplesMergedThisRun = 0;
         uint64_t passDataBuilds = 0;  // see JobStatus.pass_data_builds
-        std::mutex checkpointMutex;   // serializes this job's checkpoint writes
+        uint64_t memoryBytes = 0;     // jobMemoryBytes() while running, 0 once ended
+        // The last failed checkpoint write (e.g. a full disk); cleared by the next success. A
+        // job whose every unit is merged stays running until its final checkpoint is written.
+        std::string checkpointError;
+        std::mutex checkpointMutex;  // serializes this job's checkpoint writes
     };
     struct WorkerRecord {
         v1::WorkerInfo info;
         std::chrono::steady_clock::time_point lastSeen;
+        double lastContactWall = 0;  // wall clock of the last call, or of this process's start
         std::set<uint64_t> leases;
         // The pass chunk of each job this worker last leased: it holds that chunk's pass data.
         std::map<uint64_t, uint32_t> lastChunk;
@@ -140,13 +153,24 @@ class Coordinator {
     // The pending unit of `job` to lease to `workerId` next (job.pending must not be empty).
     uint32_t pickUnitLocked(const Job& job, uint64_t workerId) const;
     void resume();
+    // Rebuilds one job from its database row and checkpoint; throws Error on a damaged record.
+    void resumeJob(Job& job, const std::string& description, int width, int height,
+                   int filterBorder);
     void backgroundLoop();
     void expireLeases();
     void checkpointDirtyJobs();
     // Writes `film`/`merged` unless a newer checkpoint of the job exists already.
     void writeJobCheckpoint(Job& job, const FilmBlock& film, const std::vector<bool>& merged,
                             uint32_t count);
-    void finishJob(Job& job);  // called without m_mutex held, once every unit is merged
+    // Called without m_mutex held once every unit is merged: writes the final checkpoint, then
+    // ends the job DONE. When the write fails the job stays running with the error shown, and
+    // the background thread (or stop()) tries again.
+    void finishJob(Job& job);
+    // The token a worker shows to have its lease re-adopted by a later coordinator process.
+    std::string leaseToken(uint64_t epoch, uint64_t leaseId, uint64_t workerId, uint64_t jobId,
+                           uint32_t unitIndex) const;
+    bool leaseTokenValid(const std::string& token, uint64_t leaseId, uint64_t workerId,
+                         uint64_t jobId, uint32_t unitIndex) const;
 
     // The following require m_mutex.
     Job& jobLocked(uint64_t jobId);
@@ -157,6 +181,7 @@ class Coordinator {
     WorkerRecord* touchWorkerLocked(uint64_t workerId);
 
     CoordinatorOptions m_options;
+    StateDirectoryLock m_lock;
     StateDatabase m_db;
     BlobStore m_blobs;
     mutable std::mutex m_mutex;
@@ -166,6 +191,9 @@ class Coordinator {
     std::unordered_map<uint64_t, LeaseRef> m_leases;
     std::unordered_map<std::string, double> m_blobsTouchedAt;  // sha256 -> wall clock
     uint64_t m_nextLeaseId;
+    uint64_t m_epoch = 0;        // this process's start number on the state directory
+    std::string m_leaseKey;      // HMAC key of lease tokens, kept in the database
+    uint64_t m_memoryInUse = 0;  // sum of running jobs' memoryBytes
     bool m_stopping = false, m_stopped = false;
     std::thread m_background;
     std::condition_variable m_backgroundWake;

@@ -13,6 +13,9 @@
 #include "coordinator/checkpoint.h"
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+
+#include <csignal>
 
 #include <cmath>
 #include <filesystem>
@@ -156,6 +159,22 @@ class CoordinatorJob : public ::testing::Test {
             ASSERT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
             if (afterMerge) afterMerge(lease);
         }
+    }
+
+    std::string localFilm(uint32_t passes = 3) {
+        auto scene = loadScene((m_dir / "scene/s.xml").string());
+        RenderSettings settings;
+        settings.seed = 5;
+        settings.passes = passes;
+        return renderLocal(*scene, settings).serialize();
+    }
+
+    template <typename Predicate>
+    static bool waitFor(Predicate done) {
+        // A bound for background work, not a timing assertion: it normally takes milliseconds.
+        for (int i = 0; i < 1000 && !done(); ++i)
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        return done();
     }
 
     fs::path m_dir;
@@ -362,6 +381,367 @@ TEST_F(CoordinatorJob, BrokenSceneIsRefusedWithFileAndLine) {
         EXPECT_EQ(std::string(e.what()).rfind("s.xml:2:", 0), 0u) << e.what();
     }
     EXPECT_TRUE(coordinator.listJobs(0).empty());
+}
+
+TEST_F(CoordinatorJob, ASecondCoordinatorOnTheStateDirectoryIsRefused) {
+    Coordinator first(m_options);
+    try {
+        Coordinator second(m_options);
+        FAIL() << "two coordinators opened one state directory";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("in use by another coordinator (pid " +
+                                             std::to_string(::getpid())),
+                  std::string::npos)
+            << e.what();
+    }
+    first.stop();
+}
+
+// A lost (emptied) database must not start afresh: it would hand out job 1 again and delete
+// job 1's film.
+TEST_F(CoordinatorJob, ALostDatabaseIsRefusedAndNoFilmIsDeleted) {
+    {
+        Coordinator coordinator(m_options);
+        coordinator.submit(upload(coordinator));
+        renderAllUnits(coordinator, coordinator.registerWorker(v1::RegisterRequest()));
+        coordinator.stop();
+    }
+    const fs::path state = m_options.stateDirectory;
+    ASSERT_TRUE(fs::exists(state / "jobs/1/film.ckpt"));
+    fs::remove(state / "state.sqlite-wal");
+    fs::remove(state / "state.sqlite-shm");
+    std::ofstream(state / "state.sqlite", std::ios::trunc).close();
+    try {
+        Coordinator coordinator(m_options);
+        FAIL() << "started on an emptied database";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("lost or truncated"), std::string::npos) << e.what();
+    }
+    EXPECT_TRUE(fs::exists(state / "jobs/1/film.ckpt"));
+}
+
+// What a restarted coordinator knows of each job equals what it knew before: the description
+// workers get (its id included), settings, state, errors, counts and attempts.
+TEST_F(CoordinatorJob, EveryPersistedFieldRoundTrips) {
+    m_options.maxAttempts = 1;
+    std::vector<v1::JobStatus> before;
+    v1::JobDescription description;
+    uint64_t running = 0;
+    {
+        Coordinator coordinator(m_options);
+        v1::SubmitJobRequest request = upload(coordinator);
+        request.mutable_settings()->set_name("failing");
+        const uint64_t failing = coordinator.submit(request).job_id();
+        request.mutable_settings()->set_name("cancelled");
+        const uint64_t cancelled = coordinator.submit(request).job_id();
+        request.mutable_settings()->set_name("done");
+        request.mutable_settings()->set_priority(3);
+        const uint64_t done = coordinator.submit(request).job_id();
+        request.mutable_settings()->set_name("running");
+        request.mutable_settings()->set_priority(2);
+        request.mutable_settings()->set_seed(11);
+        request.mutable_settings()->set_integrator_override("normals");
+        running = coordinator.submit(request).job_id();
+        const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+        // Job "done" (priority 3) renders completely, then "running" (2) partly.
+        for (int i = 0; i < 18 + 5; ++i) {
+            const v1::AcquireWorkResponse lease =
+                coordinator.acquire(worker, std::chrono::steady_clock::now());
+            ASSERT_TRUE(lease.has_work());
+            ASSERT_EQ(lease.job().job_id(), i < 18 ? done : running);
+            if (i == 18) description = lease.job();
+            std::string compressed;
+            v1::ResultChunk header = render(lease, worker, compressed);
+            ASSERT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
+        }
+        coordinator.cancel(cancelled);
+        // One failed attempt fails job "failing" (maxAttempts 1).
+        for (;;) {
+            const v1::AcquireWorkResponse lease =
+                coordinator.acquire(worker, std::chrono::steady_clock::now());
+            ASSERT_TRUE(lease.has_work());
+            if (lease.job().job_id() != failing) continue;  // left leased, not persisted
+            v1::ResultChunk header;
+            header.set_worker_id(worker);
+            header.set_lease_id(lease.lease_id());
+            header.set_job_id(failing);
+            header.set_unit_index(lease.unit().unit_index());
+            header.set_error("out of memory");
+            ASSERT_EQ(coordinator.report(header, ""), v1::RESULT_RECORDED);
+            break;
+        }
+        before = coordinator.listJobs(0);
+        coordinator.stop();
+    }
+    ASSERT_EQ(description.job_id(), running);
+    Coordinator restarted(m_options);
+    const std::vector<v1::JobStatus> after = restarted.listJobs(0);
+    ASSERT_EQ(after.size(), before.size());
+    for (size_t i = 0; i < after.size(); ++i) {
+        v1::JobStatus expected = before[i], actual = after[i];
+        // Counters of one process and clock readings are not state.
+        for (v1::JobStatus* status : {&expected, &actual}) {
+            status->clear_units_leased();
+            status->clear_active_workers();
+            status->clear_units_restored();
+            status->clear_units_merged_this_run();
+            status->clear_units_leased_this_run();
+            status->clear_results_discarded();
+            status->clear_checkpoints_written();
+            status->clear_elapsed_seconds();
+            status->clear_eta_seconds();
+            status->clear_samples_per_second();
+            status->clear_pass_data_builds();
+        }
+        EXPECT_EQ(actual.DebugString(), expected.DebugString()) << "job " << before[i].job_id();
+    }
+    // The description a worker gets for the resumed job is the one it got before, id included:
+    // a worker caching scenes by job must load this job's scene.
+    const uint64_t worker = restarted.registerWorker(v1::RegisterRequest());
+    const v1::AcquireWorkResponse lease =
+        restarted.acquire(worker, std::chrono::steady_clock::now());
+    ASSERT_TRUE(lease.has_work());
+    EXPECT_EQ(lease.job().DebugString(), description.DebugString());
+    restarted.stop();
+}
+
+TEST_F(CoordinatorJob, CountsThatWouldOverflowAreClampedOrRefused) {
+    Coordinator coordinator(m_options);
+    v1::SubmitJobRequest request = upload(coordinator);
+    // Passes per unit beyond the passes: one chunk, not zero units.
+    request.mutable_settings()->set_passes_per_unit(UINT32_MAX);
+    const v1::JobStatus status = coordinator.submit(request);
+    EXPECT_EQ(status.units_total(), 6u);
+    EXPECT_EQ(status.settings().passes_per_unit(), 3u);
+    renderAllUnits(coordinator, coordinator.registerWorker(v1::RegisterRequest()));
+    EXPECT_EQ(coordinator.listJobs(status.job_id()).at(0).state(), v1::JOB_STATE_DONE);
+    EXPECT_EQ(coordinator.snapshot(status.job_id(), false).film.serialize(), localFilm());
+    // 1200 one-pixel tiles x 2^20 passes: more units than a 32-bit index names.
+    request.mutable_settings()->set_tile_size(1);
+    request.mutable_settings()->set_passes(1u << 20);
+    request.mutable_settings()->set_passes_per_unit(1);
+    try {
+        coordinator.submit(request);
+        FAIL() << "a job of 2^30 units was accepted";
+    } catch (const FarmError& e) {
+        EXPECT_NE(std::string(e.what()).find("units"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(coordinator.listJobs(0).size(), 1u);
+}
+
+TEST_F(CoordinatorJob, JobsBeyondTheMemoryBudgetAreRefused) {
+    // Room for one 40x30 job of 18 units, not two.
+    m_options.maxMemoryBytes = Coordinator::jobMemoryBytes(40, 30, 18) * 3 / 2;
+    Coordinator coordinator(m_options);
+    const v1::SubmitJobRequest request = upload(coordinator);
+    const uint64_t first = coordinator.submit(request).job_id();
+    try {
+        coordinator.submit(request);
+        FAIL() << "the second job was accepted beyond the budget";
+    } catch (const FarmError& e) {
+        EXPECT_EQ(e.kind, FarmError::Kind::ResourceExhausted);
+        EXPECT_NE(std::string(e.what()).find("--max-memory"), std::string::npos) << e.what();
+    }
+    // 1200 one-pixel tiles x 3 passes: too many units for the budget even alone.
+    v1::SubmitJobRequest small = request;
+    small.mutable_settings()->set_tile_size(1);
+    coordinator.cancel(first);  // ending a job gives its memory back
+    EXPECT_THROW(coordinator.submit(small), FarmError);
+    EXPECT_NO_THROW(coordinator.submit(request));
+}
+
+// A final checkpoint that cannot be written (here: the job's directory replaced by a file, which
+// fails for root too) leaves the job running with the error shown, never "done" without its film
+// on disk and never stuck: the next attempt, or a graceful stop, finishes it.
+TEST_F(CoordinatorJob, AFailingFinalCheckpointIsRetriedAndNeverHangs) {
+    const std::string expected = localFilm();
+    for (const bool gracefulStop : {true, false}) {
+        SCOPED_TRACE(gracefulStop ? "graceful stop" : "background retry");
+        m_options.checkpointIntervalSeconds = gracefulStop ? 3600 : 0.05;
+        uint64_t jobId = 0;
+        fs::path directory, aside;
+        {
+            Coordinator coordinator(m_options);
+            coordinator.start();
+            jobId = coordinator.submit(upload(coordinator)).job_id();
+            directory = coordinator.jobDirectory(jobId);
+            aside = directory.string() + ".aside";
+            const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+            fs::rename(directory, aside);
+            std::ofstream(directory) << "not a directory";
+            renderAllUnits(coordinator, worker);
+            v1::JobStatus status = coordinator.listJobs(jobId).at(0);
+            EXPECT_EQ(status.state(), v1::JOB_STATE_RUNNING);
+            EXPECT_EQ(status.units_done(), status.units_total());
+            EXPECT_NE(status.error().find("cannot write the checkpoint"), std::string::npos)
+                << status.error();
+            fs::remove(directory);
+            fs::rename(aside, directory);
+            if (!gracefulStop) {
+                EXPECT_TRUE(waitFor([&] {
+                    return coordinator.listJobs(jobId).at(0).state() == v1::JOB_STATE_DONE;
+                })) << "the final checkpoint was not retried";
+                EXPECT_TRUE(coordinator.listJobs(jobId).at(0).error().empty());
+            }
+            coordinator.stop();
+        }
+        Coordinator restarted(m_options);
+        EXPECT_EQ(restarted.listJobs(jobId).at(0).state(), v1::JOB_STATE_DONE);
+        EXPECT_EQ(restarted.snapshot(jobId, false).film.serialize(), expected);
+        restarted.stop();
+    }
+}
+
+// Leases survive a coordinator restart only for the worker that really holds them: a forged
+// token or invented lease is fenced, and so is a lease that expired in the current process.
+TEST_F(CoordinatorJob, OnlyLeasesGrantedEarlierAreReadopted) {
+    v1::AcquireWorkResponse held;
+    uint64_t jobId = 0, worker = 0;
+    {
+        Coordinator coordinator(m_options);
+        jobId = coordinator.submit(upload(coordinator)).job_id();
+        worker = coordinator.registerWorker(v1::RegisterRequest());
+        held = coordinator.acquire(worker, std::chrono::steady_clock::now());
+        ASSERT_TRUE(held.has_work());
+        coordinator.stop();
+    }
+    m_options.leaseSeconds = 0.2;
+    m_options.checkpointIntervalSeconds = 3600;
+    Coordinator coordinator(m_options);
+    const auto heartbeat = [&](uint64_t leaseId, uint32_t unit, const std::string& token) {
+        v1::HeartbeatRequest request;
+        request.set_worker_id(worker);
+        request.add_lease_ids(leaseId);
+        v1::HeldUnit& heldUnit = *request.add_held_units();
+        heldUnit.set_job_id(jobId);
+        heldUnit.set_unit_index(unit);
+        heldUnit.set_lease_token(token);
+        return coordinator.heartbeat(request).drop_lease_ids_size() == 0;
+    };
+    const uint32_t unit = held.unit().unit_index();
+    std::string forged = held.lease_token();
+    forged.back() ^= 1;
+    EXPECT_FALSE(heartbeat(held.lease_id() + 1, unit + 1, held.lease_token()))
+        << "a token re-adopted a unit it was not granted for";
+    EXPECT_FALSE(heartbeat(held.lease_id(), unit, forged)) << "a forged token was accepted";
+    EXPECT_FALSE(heartbeat(held.lease_id(), unit, "")) << "a lease without a token was adopted";
+    EXPECT_EQ(coordinator.listJobs(jobId).at(0).units_leased(), 0u);
+    EXPECT_TRUE(heartbeat(held.lease_id(), unit, held.lease_token()))
+        << "the lease granted before the restart was not re-adopted";
+    EXPECT_EQ(coordinator.listJobs(jobId).at(0).units_leased(), 1u);
+
+    // A lease of this process that expires is fenced, also when its holder comes back.
+    const uint64_t other = coordinator.registerWorker(v1::RegisterRequest());
+    const v1::AcquireWorkResponse lease =
+        coordinator.acquire(other, std::chrono::steady_clock::now());
+    ASSERT_TRUE(lease.has_work());
+    coordinator.start();
+    ASSERT_TRUE(waitFor([&] { return coordinator.listJobs(jobId).at(0).attempts_failed() >= 2; }));
+    v1::HeartbeatRequest late;
+    late.set_worker_id(other);
+    late.add_lease_ids(lease.lease_id());
+    v1::HeldUnit& lateUnit = *late.add_held_units();
+    lateUnit.set_job_id(jobId);
+    lateUnit.set_unit_index(lease.unit().unit_index());
+    lateUnit.set_lease_token(lease.lease_token());
+    EXPECT_EQ(coordinator.heartbeat(late).drop_lease_ids_size(), 1)
+        << "an expired lease of this process was re-adopted instead of fenced";
+    coordinator.stop();
+}
+
+TEST_F(CoordinatorJob, WorkersNotSeenForTheKeepTimeAreForgotten) {
+    m_options.keepFinishedSeconds = 1000;
+    const double now =
+        std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    {
+        Coordinator coordinator(m_options);
+        coordinator.registerWorker(v1::RegisterRequest());
+        coordinator.pruneFinishedJobs(now + 900);
+        EXPECT_EQ(coordinator.listWorkers(true).size(), 1u);
+        coordinator.pruneFinishedJobs(now + 1100);
+        EXPECT_EQ(coordinator.listWorkers(true).size(), 0u);
+        coordinator.stop();
+    }
+    Coordinator restarted(m_options);
+    EXPECT_EQ(restarted.listWorkers(true).size(), 0u) << "the worker's row was kept";
+}
+
+// A damaged job record fails that job with a message naming it and the database; the other
+// jobs resume and finish.
+TEST_F(CoordinatorJob, ADamagedJobRecordFailsOnlyThatJob) {
+    uint64_t damaged = 0, healthy = 0;
+    {
+        Coordinator coordinator(m_options);
+        damaged = coordinator.submit(upload(coordinator)).job_id();
+        healthy = coordinator.submit(upload(coordinator)).job_id();
+        coordinator.stop();
+    }
+    {
+        StateDatabase db(m_options.stateDirectory + "/state.sqlite");
+        v1::JobDescription description;
+        description.mutable_settings()->set_tile_size(16);  // passes 0: not a valid job
+        db.execute("UPDATE jobs SET description = ? WHERE id = ?",
+                   {description.SerializeAsString(), int64_t(damaged)});
+    }
+    Coordinator coordinator(m_options);
+    const v1::JobStatus status = coordinator.listJobs(damaged).at(0);
+    EXPECT_EQ(status.state(), v1::JOB_STATE_FAILED);
+    EXPECT_NE(status.error().find("cannot resume job " + std::to_string(damaged) + " from " +
+                                  m_options.stateDirectory + "/state.sqlite"),
+              std::string::npos)
+        << status.error();
+    renderAllUnits(coordinator, coordinator.registerWorker(v1::RegisterRequest()));
+    EXPECT_EQ(coordinator.listJobs(healthy).at(0).state(), v1::JOB_STATE_DONE);
+    EXPECT_EQ(coordinator.snapshot(healthy, false).film.serialize(), localFilm());
+    coordinator.stop();
+}
+
+TEST_F(CoordinatorJob, AFinishedJobWhoseCheckpointIsLostIsRenderedAgain) {
+    uint64_t jobId = 0;
+    {
+        Coordinator coordinator(m_options);
+        jobId = coordinator.submit(upload(coordinator)).job_id();
+        renderAllUnits(coordinator, coordinator.registerWorker(v1::RegisterRequest()));
+        coordinator.stop();
+        fs::remove(coordinator.jobDirectory(jobId) + "/film.ckpt");
+    }
+    Coordinator coordinator(m_options);
+    const v1::JobStatus status = coordinator.listJobs(jobId).at(0);
+    EXPECT_EQ(status.state(), v1::JOB_STATE_RUNNING) << "done without its film";
+    EXPECT_EQ(status.units_done(), 0u);
+    renderAllUnits(coordinator, coordinator.registerWorker(v1::RegisterRequest()));
+    EXPECT_EQ(coordinator.snapshot(jobId, false).film.serialize(), localFilm());
+    coordinator.stop();
+}
+
+// A write that fails (here a file size limit, as a full disk) must not publish a short blob
+// under the full blob's hash; once writes succeed again the same upload stores it.
+TEST(BlobStore, AFailedWriteNeverPublishesTheBlob) {
+    const fs::path dir = freshDirectory("blobs_full");
+    BlobStore store(dir.string(), 1 << 20);
+    const std::string bytes(3000, 'x');
+    const std::string sha = farm::sha256Hex(bytes);
+    std::signal(SIGXFSZ, SIG_IGN);  // a failed write, not a killed process
+    rlimit original{};
+    ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &original), 0);
+    rlimit limited = original;
+    limited.rlim_cur = 1000;
+    ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &limited), 0);
+    try {
+        BlobStore::Upload upload(store, sha);
+        upload.append(bytes);
+        upload.commit();
+        ADD_FAILURE() << "a blob was stored beyond the file size limit";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("cannot store blob"), std::string::npos) << e.what();
+    }
+    ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &original), 0);
+    EXPECT_FALSE(store.has(sha));
+    BlobStore::Upload upload(store, sha);
+    upload.append(bytes);
+    EXPECT_TRUE(upload.commit());
+    EXPECT_EQ(store.size(sha), 3000u);
+    fs::remove_all(dir);
 }
 
 }  // namespace

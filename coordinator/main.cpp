@@ -52,6 +52,10 @@ int main(int argc, char** argv) {
                    "removed (with blobs no remaining job uses); 0 keeps them forever")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 1e6));
+    app.add_option("--max-memory", options.maxMemoryBytes,
+                   "Memory the running jobs' films and unit tables may take together, e.g. 8GB "
+                   "(default: half the physical memory); a job that would exceed it is refused")
+        ->transform(CLI::AsSizeValue(false));
     app.add_option("--port-file", portFile, "Write the bound port to this file once listening");
     try {
         app.parse(argc, argv);
@@ -81,6 +85,9 @@ int main(int argc, char** argv) {
         grpc::ServerBuilder builder;
         int port = 0;
         builder.AddListeningPort(listen, farm::makeServerCredentials(tlsCert, tlsKey), &port);
+        // Without this gRPC sets SO_REUSEPORT and a second coordinator on the same port starts
+        // too, taking part of the clients' calls.
+        builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
         builder.SetMaxReceiveMessageSize(farm::kMaxMessageBytes);
         builder.SetMaxSendMessageSize(farm::kMaxMessageBytes);
         builder.RegisterService(&clientService);

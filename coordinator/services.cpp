@@ -156,6 +156,9 @@ grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context,
                                          const v1::WatchJobRequest* request,
                                          grpc::ServerWriter<v1::JobStatus>* writer) {
     return guarded(context, m_token, "WatchJob", [&] {
+        if (request->job_id() == 0)
+            return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                                "WatchJob needs a job id (job ids start at 1)");
         std::string last;
         auto lastSent = std::chrono::steady_clock::now();
         for (;;) {

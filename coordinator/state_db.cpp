@@ -29,6 +29,9 @@ CREATE TABLE IF NOT EXISTS blobs(
   sha256 TEXT PRIMARY KEY,
   size INTEGER NOT NULL,
   stored_at REAL NOT NULL);
+CREATE TABLE IF NOT EXISTS meta(
+  key TEXT PRIMARY KEY,        -- 'epoch': starts of this state directory; 'lease_key': HMAC key
+  value BLOB NOT NULL);
 CREATE TABLE IF NOT EXISTS workers(
   id INTEGER PRIMARY KEY AUTOINCREMENT,
   name TEXT NOT NULL,

@@ -9,6 +9,8 @@
 #include "common/farm/sha256.h"
 #include "common/scene/scene.h"
 
+#include <google/protobuf/io/coded_stream.h>
+#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -60,6 +62,23 @@ void crashIfTestHookMatches(const v1::AcquireWorkResponse& lease) {
 void delayIfTestHookSet() {
     if (const char* delay = std::getenv("ALPHORN_TEST_UNIT_DELAY_MS"))
         std::this_thread::sleep_for(std::chrono::milliseconds(std::atoi(delay)));
+}
+
+// Everything the scene a unit is rendered with depends on, as one comparable string.
+std::string jobIdentity(const v1::JobDescription& job) {
+    v1::JobDescription identity;
+    identity.set_job_id(job.job_id());
+    *identity.mutable_bundle() = job.bundle();
+    identity.mutable_settings()->set_seed(job.settings().seed());
+    identity.mutable_settings()->set_integrator_override(job.settings().integrator_override());
+    std::string bytes;
+    {
+        google::protobuf::io::StringOutputStream stream(&bytes);
+        google::protobuf::io::CodedOutputStream coded(&stream);
+        coded.SetSerializationDeterministic(true);
+        identity.SerializeToCodedStream(&coded);
+    }  // the coded stream writes its last bytes when it goes
+    return bytes;
 }
 
 }  // namespace
@@ -173,7 +192,12 @@ void Worker::heartbeatLoop() {
 }
 
 Worker::JobContext& Worker::prepareJob(const v1::JobDescription& job) {
-    if (m_job && m_job->jobId == job.job_id()) return *m_job;
+    // The cached scene is reused only for the very same job: same id, bundle (content hashes)
+    // and settings. An id alone is not enough: ids of different jobs have been seen equal
+    // (descriptions stored without their id), and a worker must never render a unit with
+    // another job's scene.
+    const std::string identity = jobIdentity(job);
+    if (m_job && m_job->identity == identity) return *m_job;
     // One job's scene at a time: the previous one is released, so memory stays flat.
     m_job.reset();
     const fs::path jobsDirectory = fs::path(m_options.cacheDirectory) / "jobs";
@@ -181,6 +205,7 @@ Worker::JobContext& Worker::prepareJob(const v1::JobDescription& job) {
     fs::remove_all(jobsDirectory, ignored);
     auto context = std::make_unique<JobContext>();
     context->jobId = job.job_id();
+    context->identity = identity;
     context->seed = job.settings().seed();
     const farm::Bundle bundle = farm::fromProto(job.bundle());
     for (const auto& file : bundle.files) context->blobs.insert(file.sha256);
@@ -382,6 +407,7 @@ int Worker::run() {
             v1::HeldUnit held;
             held.set_job_id(lease.unit().job_id());
             held.set_unit_index(lease.unit().unit_index());
+            held.set_lease_token(lease.lease_token());
             m_activeLeases[lease.lease_id()] = held;
             m_renderingLease = lease.lease_id();
             m_cancelRender = m_stopRequests >= 2;

@@ -46,6 +46,7 @@ class Worker {
   private:
     struct JobContext {
         uint64_t jobId = 0;
+        std::string identity;  // jobIdentity() of the description the scene was loaded for
         std::shared_ptr<Scene> scene;
         uint64_t seed = 0;
         std::set<std::string> blobs;

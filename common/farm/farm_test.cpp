@@ -110,6 +110,26 @@ TEST(JobGrid, CoversEveryPassAndPixelOnce) {
     EXPECT_THROW(JobGrid(1, 1, 1, 0, 1), Error);
 }
 
+// Counts that overflowed 32 bits gave a job of zero units (shown done with a black image) or
+// an index past the end of the merged flags (a crash at every status call).
+TEST(JobGrid, CountsNeverWrap) {
+    const JobGrid oneChunk(64, 64, 64, 3, UINT32_MAX);
+    EXPECT_EQ(oneChunk.chunkCount(), 1u);
+    EXPECT_EQ(oneChunk.unitCount(), 1u);
+    EXPECT_EQ(oneChunk.unit(0).passBegin, 0u);
+    EXPECT_EQ(oneChunk.unit(0).passEnd, 3u);
+    EXPECT_EQ(oneChunk.passesComplete({true}), 3u);
+    const JobGrid lastChunk(1, 1, 1, UINT32_MAX, UINT32_MAX - 1);
+    EXPECT_EQ(lastChunk.unitCount(), 2u);
+    EXPECT_EQ(lastChunk.unit(1).passBegin, UINT32_MAX - 1);
+    EXPECT_EQ(lastChunk.unit(1).passEnd, UINT32_MAX);
+    EXPECT_EQ(lastChunk.chunkPasses(1), 1u);
+    // 4096 one-pixel tiles x 2^20 passes = 2^32 units: refused, not wrapped to 0.
+    EXPECT_THROW(JobGrid(64, 64, 1, 1u << 20, 1), Error);
+    EXPECT_EQ(JobGrid(64, 64, 1, (1u << 20) - 1, 1).unitCount(), 4096u * ((1u << 20) - 1));
+    EXPECT_THROW(oneChunk.passesComplete({true, false}), Error);
+}
+
 TEST(FilmCodec, RoundTripIsExact) {
     FilmBlock block(-2, -3, 40, 30);
     for (int y = -3; y < 27; ++y)

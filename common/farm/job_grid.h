@@ -12,7 +12,8 @@ namespace alphorn::farm {
 class JobGrid {
   public:
     JobGrid() = default;
-    // Throws Error on non-positive sizes, passes or tile size.
+    // Throws Error on non-positive sizes, passes or tile size, and when the grid would have more
+    // units than a 32-bit unit index can name (counts are computed in 64 bits, never wrapped).
     JobGrid(int width, int height, int tileSize, uint32_t passes, uint32_t passesPerUnit);
 
     int width() const { return m_width; }
@@ -20,8 +21,8 @@ class JobGrid {
     uint32_t passes() const { return m_passes; }
     uint32_t passesPerUnit() const { return m_passesPerUnit; }
     uint32_t tileCount() const { return static_cast<uint32_t>(m_tiles.size()); }
-    uint32_t chunkCount() const { return (m_passes + m_passesPerUnit - 1) / m_passesPerUnit; }
-    uint32_t unitCount() const { return chunkCount() * tileCount(); }
+    uint32_t chunkCount() const { return m_chunkCount; }
+    uint32_t unitCount() const { return m_chunkCount * tileCount(); }
 
     // Unit `index` = chunk * tileCount() + tile: all tiles of the first passes come first, so
     // a preview fills the whole image early.
@@ -34,7 +35,7 @@ class JobGrid {
 
   private:
     int m_width = 0, m_height = 0;
-    uint32_t m_passes = 0, m_passesPerUnit = 1;
+    uint32_t m_passes = 0, m_passesPerUnit = 1, m_chunkCount = 0;
     std::vector<Tile> m_tiles;
 };
 

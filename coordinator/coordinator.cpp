@@ -281,7 +281,11 @@ void Coordinator::backgroundLoop() {
         m_backgroundWake.wait_for(lock, std::chrono::milliseconds(200));
         if (m_stopping) break;
         lock.unlock();
-        expireLeases();
+        try {
+            expireLeases();
+        } catch (const std::exception& e) {
+            logWarning("leases.expiry_failed", {field("error", e.what())});
+        }
         if (Clock::now() >= nextPrune) {
             try {
                 pruneFinishedJobs(wallSeconds());
@@ -302,8 +306,13 @@ void Coordinator::backgroundLoop() {
 }
 
 void Coordinator::recordBlob(const std::string& sha256, uint64_t size) {
-    m_db.execute("INSERT OR IGNORE INTO blobs(sha256, size, stored_at) VALUES(?, ?, ?)",
-                 {sha256, int64_t(size), wallSeconds()});
+    try {
+        // Informational: the blob directory is what counts, and the blob is in it already.
+        m_db.execute("INSERT OR IGNORE INTO blobs(sha256, size, stored_at) VALUES(?, ?, ?)",
+                     {sha256, int64_t(size), wallSeconds()});
+    } catch (const StorageError& e) {
+        logWarning("blob.not_recorded", {field("sha256", sha256), field("error", e.what())});
+    }
     touchBlobs({sha256});
 }
 
@@ -910,18 +919,28 @@ void Coordinator::recordFailureLocked(Job& job, uint32_t unitIndex, const std::s
     ++slot.attempts;
     ++job.attemptsFailed;
     slot.lastError = message;
-    m_db.execute(
-        "INSERT INTO units(job_id, unit_index, attempts, last_error) VALUES(?, ?, ?, ?) "
-        "ON CONFLICT(job_id, unit_index) DO UPDATE SET attempts = excluded.attempts, last_error = "
-        "excluded.last_error",
-        {int64_t(job.id), int64_t(unitIndex), int64_t(slot.attempts), message});
+    try {
+        m_db.execute(
+            "INSERT INTO units(job_id, unit_index, attempts, last_error) VALUES(?, ?, ?, ?) "
+            "ON CONFLICT(job_id, unit_index) DO UPDATE SET attempts = excluded.attempts, "
+            "last_error = excluded.last_error",
+            {int64_t(job.id), int64_t(unitIndex), int64_t(slot.attempts), message});
+    } catch (const StorageError& e) {
+        // The unit goes back in the queue all the same; only the count may restart from less.
+        logWarning("unit.attempt_not_recorded",
+                   {field("job", job.id), field("unit", unitIndex), field("error", e.what())});
+    }
     logWarning("unit.failed", {field("job", job.id), field("unit", unitIndex),
                                field("attempt", slot.attempts), field("error", message)});
     if (slot.attempts >= m_options.maxAttempts) {
         // A poison unit: it fails its job, never the farm.
-        endJobLocked(job, v1::JOB_STATE_FAILED,
-                     absl::StrFormat("unit %u failed %u times (the limit); last error: %s",
-                                     unitIndex, slot.attempts, message));
+        try {
+            endJobLocked(job, v1::JOB_STATE_FAILED,
+                         absl::StrFormat("unit %u failed %u times (the limit); last error: %s",
+                                         unitIndex, slot.attempts, message));
+        } catch (const StorageError& e) {
+            logWarning("job.end_not_recorded", {field("job", job.id), field("error", e.what())});
+        }
         return;
     }
     job.pending.insert(unitIndex);

@@ -29,6 +29,11 @@ grpc::Status toStatus(const std::exception& e) {
                 return {grpc::StatusCode::RESOURCE_EXHAUSTED, e.what()};
         }
     }
+    if (dynamic_cast<const StorageError*>(&e)) {
+        logWarning("rpc.storage_error", {field("error", e.what())});
+        return {grpc::StatusCode::UNAVAILABLE,
+                std::string("the coordinator cannot write its state (retry later): ") + e.what()};
+    }
     if (dynamic_cast<const Error*>(&e)) return {grpc::StatusCode::INVALID_ARGUMENT, e.what()};
     logWarning("rpc.internal_error", {field("error", e.what())});
     return {grpc::StatusCode::INTERNAL, e.what()};

@@ -78,7 +78,7 @@ std::vector<StateDatabase::Row> StateDatabase::query(const std::string& sql,
     std::lock_guard lock(m_mutex);
     Statement statement;
     if (sqlite3_prepare_v2(m_db, sql.c_str(), -1, &statement.handle, nullptr) != SQLITE_OK)
-        fail("SQL error in \"%s\": %s", sql, sqlite3_errmsg(m_db));
+        throw StorageError(absl::StrFormat("SQL error in \"%s\": %s", sql, sqlite3_errmsg(m_db)));
     for (size_t i = 0; i < parameters.size(); ++i) {
         const int index = static_cast<int>(i) + 1;
         const Value& value = parameters[i];
@@ -94,13 +94,17 @@ std::vector<StateDatabase::Row> StateDatabase::query(const std::string& sql,
             rc = sqlite3_bind_blob(statement.handle, index, bytes.data(),
                                    static_cast<int>(bytes.size()), SQLITE_TRANSIENT);
         }
-        if (rc != SQLITE_OK) fail("SQL bind error in \"%s\": %s", sql, sqlite3_errmsg(m_db));
+        if (rc != SQLITE_OK)
+            throw StorageError(
+                absl::StrFormat("SQL bind error in \"%s\": %s", sql, sqlite3_errmsg(m_db)));
     }
     std::vector<Row> rows;
     for (;;) {
         int rc = sqlite3_step(statement.handle);
         if (rc == SQLITE_DONE) break;
-        if (rc != SQLITE_ROW) fail("SQL error in \"%s\": %s", sql, sqlite3_errmsg(m_db));
+        if (rc != SQLITE_ROW)
+            throw StorageError(
+                absl::StrFormat("SQL error in \"%s\": %s", sql, sqlite3_errmsg(m_db)));
         Row row;
         for (int c = 0; c < sqlite3_column_count(statement.handle); ++c) {
             switch (sqlite3_column_type(statement.handle, c)) {

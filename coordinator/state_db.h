@@ -3,6 +3,8 @@
 // database says which jobs exist and how they stand, the checkpoint which units are merged.
 #pragma once
 
+#include "common/core/error.h"
+
 #include <cstdint>
 #include <functional>
 #include <mutex>
@@ -13,6 +15,13 @@
 struct sqlite3;
 
 namespace alphorn::coordinator {
+
+// A statement that could not run (a full or read-only disk, a damaged file). The services turn it
+// into UNAVAILABLE: the request was fine, the coordinator's storage was not.
+class StorageError : public Error {
+  public:
+    using Error::Error;
+};
 
 class StateDatabase {
   public:
@@ -25,7 +34,7 @@ class StateDatabase {
     StateDatabase(const StateDatabase&) = delete;
     StateDatabase& operator=(const StateDatabase&) = delete;
 
-    // Runs one statement with bound parameters; throws Error with SQLite's message.
+    // Runs one statement with bound parameters; throws StorageError with SQLite's message.
     void execute(const std::string& sql, const std::vector<Value>& parameters = {});
     // Runs a query and returns all rows.
     std::vector<Row> query(const std::string& sql, const std::vector<Value>& parameters = {});

@@ -64,6 +64,9 @@ int main(int argc, char** argv) {
     }
     options.keepFinishedSeconds = keepFinishedHours * 3600;
 
+    // A file size limit (ulimit -f) must fail the write that exceeds it, like a full disk, not
+    // kill the coordinator.
+    std::signal(SIGXFSZ, SIG_IGN);
     // Signals are taken by a dedicated thread (sigwait), so every other thread blocks them.
     sigset_t signals;
     sigemptyset(&signals);

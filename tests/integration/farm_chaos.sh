@@ -20,10 +20,13 @@ echo "chaos seed $seed, $steps steps (replay: CHAOS_SEED=$seed CHAOS_STEPS=$step
 uniform() { local ms=$(($1 + RANDOM % ($2 - $1 + 1))); printf '%d.%03d' $((ms / 1000)) $((ms % 1000)); }
 
 # The state directory lives on its own small file system so it can really fill up. Without the
-# right to mount one, a file size limit on the coordinator stands in for a full disk.
+# right to mount one (or with CHAOS_DISK=prlimit), a file size limit on the coordinator stands in
+# for a full disk.
 mkdir -p "$WORK/state"
 disk_mode=prlimit
-if mount -t tmpfs -o size=48m alphorn-chaos "$WORK/state" 2>/dev/null; then disk_mode=tmpfs; fi
+if [[ ${CHAOS_DISK:-tmpfs} == tmpfs ]] && mount -t tmpfs -o size=48m alphorn-chaos "$WORK/state" 2>/dev/null; then
+    disk_mode=tmpfs
+fi
 trap 'st=$?; set +e; trap - ERR; for p in "${PIDS[@]}"; do kill -9 "$p" 2>/dev/null; done
       wait 2>/dev/null; [[ $disk_mode == tmpfs ]] && umount -l "$WORK/state"; (exit $st); cleanup' EXIT
 echo "full-disk episodes: $disk_mode"

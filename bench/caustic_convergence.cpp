@@ -118,8 +118,8 @@ int main(int argc, char** argv) {
     const std::string scenePath = std::string(ALPHORN_SOURCE_DIR) + "/scenes/caustic/caustic.xml";
     std::filesystem::create_directories(outDir);
 
-    auto photonScene = farm::loadJobScene(scenePath, "");
-    auto pathScene = farm::loadJobScene(scenePath, "path_mis");
+    auto photonScene = farm::loadSceneWithIntegrator(scenePath, "");
+    auto pathScene = farm::loadSceneWithIntegrator(scenePath, "path_mis");
     std::printf("reference: photonmapper, %u passes, seed 1000, crop %dx%d\n", referencePasses,
                 kCrop.width(), kCrop.height());
     std::vector<double> reference;

@@ -31,7 +31,7 @@ struct Figures {
 // `props` configure the integrator `integrator` that replaces the scene's.
 Figures measure(const std::string& path, const std::string& integrator, uint32_t passes, int crop,
                 const PropertyList& props = PropertyList("bench")) {
-    std::shared_ptr<Scene> scene = farm::loadJobScene(path, "");
+    std::shared_ptr<Scene> scene = farm::loadSceneWithIntegrator(path, "");
     auto replacement = std::static_pointer_cast<Integrator>(
         ObjectFactory::create(ObjectKind::Integrator, integrator, props));
     replacement->activate();

@@ -425,7 +425,7 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     try {
         const std::string scenePath = farm::materializeBundle(
             bundle, bundleDirectory, [&](const std::string& sha) { return m_blobs.pathOf(sha); });
-        scene = farm::loadJobScene(scenePath, settings.integrator_override());
+        scene = farm::loadJobScene(bundleDirectory, scenePath, settings.integrator_override());
     } catch (const Error& e) {
         fs::remove_all(staging);
         throw FarmError(Kind::InvalidArgument,

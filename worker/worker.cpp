@@ -232,7 +232,7 @@ Worker::JobContext& Worker::prepareJob(const v1::JobDescription& job) {
             });
         });
     m_cache.trim(context->blobs);
-    context->scene = farm::loadJobScene(scenePath, job.settings().integrator_override());
+    context->scene = farm::loadJobScene(directory, scenePath, job.settings().integrator_override());
     log("loaded job " + std::to_string(job.job_id()) + ": " + context->scene->toString());
     m_job = std::move(context);
     return *m_job;

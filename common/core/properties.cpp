@@ -143,14 +143,41 @@ std::vector<std::string> PropertyList::unusedNames() const {
     return unused;
 }
 
+// True if `path` is `directory` or lies below it; both absolute and lexically normal.
+static bool isWithin(const std::filesystem::path& path, const std::filesystem::path& directory) {
+    const std::filesystem::path relative = path.lexically_relative(directory);
+    return !relative.empty() && *relative.begin() != "..";
+}
+
 std::string PropertyList::resolvePath(const std::string& path) const {
-    std::filesystem::path p(path);
-    std::string resolved =
-        p.is_absolute() || m_baseDirectory.empty()
-            ? p.lexically_normal().string()
-            : (std::filesystem::path(m_baseDirectory) / p).lexically_normal().string();
-    if (m_dependencies) m_dependencies->push_back(resolved);
-    return resolved;
+    namespace fs = std::filesystem;
+    const fs::path written(path);
+    const std::string& root = m_filePolicy.confinementRoot;
+    if (written.is_absolute() && (m_filePolicy.relativeOnly || !root.empty()))
+        fail(
+            "\"%s\" is an absolute path; a scene rendered on the farm must name its files "
+            "relative to the scene file",
+            path);
+    fs::path resolved = written.is_absolute() || m_baseDirectory.empty()
+                            ? written.lexically_normal()
+                            : (fs::path(m_baseDirectory) / written).lexically_normal();
+    if (!root.empty()) {
+        // First by name (".." past the root), then by where the file really is, so that neither
+        // ".." nor a symbolic link inside the root leads out of it.
+        resolved = fs::absolute(resolved).lexically_normal();
+        if (!isWithin(resolved, root))
+            fail("\"%s\" leaves the scene bundle; paths must stay inside it", path);
+        std::error_code error;
+        const fs::path realRoot = fs::canonical(root, error);
+        const fs::path real = error ? fs::path() : fs::weakly_canonical(resolved, error);
+        if (error) fail("cannot resolve \"%s\": %s", path, error.message());
+        if (!isWithin(real, realRoot))
+            fail(
+                "\"%s\" leaves the scene bundle through a symbolic link; paths must stay inside it",
+                path);
+    }
+    if (m_dependencies) m_dependencies->push_back(resolved.string());
+    return resolved.string();
 }
 
 }  // namespace alphorn

@@ -13,6 +13,17 @@
 
 namespace alphorn {
 
+// Which files a scene may name. A scene rendered where it lies may name any file; a scene sent to
+// the farm must name its files relative to itself (the client bundles them); on the farm every
+// file must lie inside the job's bundle, so a scene cannot read the server's own files.
+struct FileReferencePolicy {
+    // Refuse absolute paths (implied by a confinement root).
+    bool relativeOnly = false;
+    // Nonempty: every file must resolve inside this absolute, lexically normal directory, also
+    // after following symbolic links.
+    std::string confinementRoot;
+};
+
 class PropertyList {
   public:
     enum class Type { Boolean, Integer, Float, String, Color, Point, Vector, Transform };
@@ -62,9 +73,11 @@ class PropertyList {
     // The directory of the scene file, for resolving relative paths.
     const std::string& baseDirectory() const { return m_baseDirectory; }
     void setBaseDirectory(std::string dir) { m_baseDirectory = std::move(dir); }
-    // Resolves a relative path against the scene file's directory and records it as a file
-    // the scene depends on (the CLI uploads exactly these with the scene).
+    // Resolves a relative path against the scene file's directory, enforces the file reference
+    // policy and records the path as a file the scene depends on (the CLI uploads exactly these
+    // with the scene). Plugins open files only through it, so the policy holds in one place.
     std::string resolvePath(const std::string& path) const;
+    void setFileReferencePolicy(FileReferencePolicy policy) { m_filePolicy = std::move(policy); }
     void setDependencyLog(std::shared_ptr<std::vector<std::string>> log) {
         m_dependencies = std::move(log);
     }
@@ -88,6 +101,7 @@ class PropertyList {
     mutable std::set<std::string> m_used;
     std::string m_source = "<unknown>";
     std::string m_baseDirectory;
+    FileReferencePolicy m_filePolicy;
     std::shared_ptr<std::vector<std::string>> m_dependencies;
 };
 

@@ -54,10 +54,17 @@ void validateBundle(const Bundle& bundle) {
 }
 
 Bundle gatherBundle(const std::string& scenePath) {
-    ParseResult parsed = parseSceneFile(scenePath);
-    std::vector<fs::path> files{fs::weakly_canonical(fs::absolute(scenePath))};
+    // The farm resolves each file the scene names against the scene's place in the bundle, so
+    // an absolute path could not be found there: refuse it now rather than after the upload.
+    FileReferencePolicy policy;
+    policy.relativeOnly = true;
+    ParseResult parsed = parseSceneFile(scenePath, policy);
+    // Paths by name, as the loader opened them (not through symbolic links): the farm finds a
+    // file where the scene's relative path leads inside the bundle, so the bundle must hold it
+    // there even when the client reached it through a link.
+    std::vector<fs::path> files{fs::absolute(scenePath).lexically_normal()};
     for (const std::string& dependency : parsed.dependencies)
-        files.push_back(fs::weakly_canonical(fs::absolute(dependency)));
+        files.push_back(fs::absolute(dependency).lexically_normal());
 
     // The root: the longest common directory prefix of all files.
     fs::path root = files.front().parent_path();
@@ -92,18 +99,26 @@ Bundle gatherBundle(const std::string& scenePath) {
 std::string materializeBundle(const Bundle& bundle, const std::string& directory,
                               const std::function<std::string(const std::string&)>& blobPath) {
     validateBundle(bundle);
-    fs::create_directories(directory);
+    // Messages name files by their bundle paths only: on a worker they become the job's error,
+    // and where the server keeps blobs and bundles is none of the user's business.
+    std::error_code error;
+    fs::create_directories(directory, error);
+    if (error) fail("cannot create the bundle's directory: %s", error.message());
     for (const BundleEntry& file : bundle.files) {
         const fs::path target = fs::path(directory) / file.path;
-        fs::create_directories(target.parent_path());
-        std::error_code error;
+        fs::create_directories(target.parent_path(), error);
+        if (error) fail("cannot materialize \"%s\": %s", file.path, error.message());
         fs::remove(target, error);
-        const std::string source = blobPath(file.sha256);
+        std::string source;
+        try {
+            source = blobPath(file.sha256);
+        } catch (const fs::filesystem_error& e) {
+            fail("cannot fetch \"%s\" (blob %s): %s", file.path, file.sha256, e.code().message());
+        }
         fs::create_hard_link(source, target, error);
         if (error) {
             fs::copy_file(source, target, fs::copy_options::overwrite_existing, error);
-            if (error)
-                fail("cannot materialize \"%s\" from %s: %s", file.path, source, error.message());
+            if (error) fail("cannot materialize \"%s\": %s", file.path, error.message());
         }
     }
     return (fs::path(directory) / bundle.scenePath).string();

@@ -30,11 +30,15 @@ void validateBundlePath(const std::string& path);
 void validateBundle(const Bundle& bundle);
 
 // Parses the scene (throwing the loader's error) and hashes it and every file it references.
-// The bundle root is the deepest directory containing all of them, so paths never need "..".
+// The bundle root is the deepest directory containing all of them, so paths never need "..":
+// a scene may reach "../meshes". Refuses a scene that names a file by an absolute path, which
+// the farm would refuse (it resolves files only inside the bundle). Files are placed by the
+// paths the scene names them by, not where symbolic links lead, so the farm finds them there.
 Bundle gatherBundle(const std::string& scenePath);
 
 // Creates `directory`/path for every file, hard-linking (or copying) the blob that
-// blobPath(sha256) names. Returns the path of the scene file inside `directory`.
+// blobPath(sha256) names. Returns the path of the scene file inside `directory`. Messages name
+// files by their bundle paths, never by where the blobs or `directory` lie.
 std::string materializeBundle(const Bundle& bundle, const std::string& directory,
                               const std::function<std::string(const std::string&)>& blobPath);
 

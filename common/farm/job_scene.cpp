@@ -5,9 +5,10 @@
 
 namespace alphorn::farm {
 
-std::shared_ptr<Scene> loadJobScene(const std::string& scenePath,
-                                    const std::string& integratorOverride) {
-    std::shared_ptr<Scene> scene = loadScene(scenePath);
+namespace {
+
+std::shared_ptr<Scene> withIntegrator(std::shared_ptr<Scene> scene,
+                                      const std::string& integratorOverride) {
     if (!integratorOverride.empty()) {
         PropertyList props("integrator override \"" + integratorOverride + "\"");
         auto integrator = std::static_pointer_cast<Integrator>(
@@ -16,6 +17,21 @@ std::shared_ptr<Scene> loadJobScene(const std::string& scenePath,
         scene->setIntegrator(std::move(integrator));
     }
     return scene;
+}
+
+}  // namespace
+
+std::shared_ptr<Scene> loadJobScene(const std::string& bundleDirectory,
+                                    const std::string& scenePath,
+                                    const std::string& integratorOverride) {
+    FileReferencePolicy policy;
+    policy.confinementRoot = bundleDirectory;
+    return withIntegrator(loadScene(scenePath, policy), integratorOverride);
+}
+
+std::shared_ptr<Scene> loadSceneWithIntegrator(const std::string& scenePath,
+                                               const std::string& integratorOverride) {
+    return withIntegrator(loadScene(scenePath), integratorOverride);
 }
 
 }  // namespace alphorn::farm

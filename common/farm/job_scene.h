@@ -11,9 +11,18 @@ class Scene;
 
 namespace alphorn::farm {
 
-// Loads the scene; with a nonempty `integratorOverride`, replaces the scene's integrator by a
-// default-constructed one of that XML type. Throws the loader's Error ("file:line: problem").
-std::shared_ptr<Scene> loadJobScene(const std::string& scenePath,
+// Loads the scene of a job's bundle materialized in `bundleDirectory` (`scenePath` lies inside
+// it). Every file the scene names must lie inside the bundle: an absolute path, a ".." past its
+// root or a symbolic link leading out is refused, so a job cannot read the server's own files.
+// With a nonempty `integratorOverride`, replaces the scene's integrator by a default-constructed
+// one of that XML type. Throws the loader's Error ("file:line: problem"), which names files by
+// their paths in the bundle and never shows where the bundle lies on the server.
+std::shared_ptr<Scene> loadJobScene(const std::string& bundleDirectory,
+                                    const std::string& scenePath,
                                     const std::string& integratorOverride);
+
+// The same for a scene on disk, which may name any file (benchmarks comparing integrators).
+std::shared_ptr<Scene> loadSceneWithIntegrator(const std::string& scenePath,
+                                               const std::string& integratorOverride);
 
 }  // namespace alphorn::farm

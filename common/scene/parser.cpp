@@ -3,6 +3,7 @@
 #include "common/scene/scene.h"
 
 #include <absl/strings/ascii.h>
+#include <absl/strings/str_replace.h>
 #include <absl/strings/str_split.h>
 #include <pugixml.hpp>
 
@@ -56,13 +57,43 @@ const std::map<std::string, Tag> kPropertyTags = {
 
 class Parser {
   public:
-    explicit Parser(std::string path) : m_path(std::move(path)) {}
+    Parser(const std::string& path, const FileReferencePolicy& policy)
+        : m_path(path), m_name(path), m_policy(policy) {
+        namespace fs = std::filesystem;
+        if (!m_policy.confinementRoot.empty()) {
+            fs::path root = fs::absolute(m_policy.confinementRoot).lexically_normal();
+            if (root.filename().empty()) root = root.parent_path();  // a trailing '/'
+            m_policy.confinementRoot = root.string();
+            const fs::path scene = fs::absolute(path).lexically_normal();
+            const fs::path inRoot = scene.lexically_relative(root);
+            m_path = scene.string();
+            m_name = inRoot.generic_string();
+            if (inRoot.empty() || *inRoot.begin() == "..")
+                fail("%s: the scene file lies outside the directory its files are confined to",
+                     scene.filename().string());
+        }
+    }
+
+    // The scene file's name in messages: its path, or its path inside the confinement root.
+    const std::string& name() const { return m_name; }
 
     ParseResult parse() {
+        if (m_policy.confinementRoot.empty()) return parseFile();
+        try {
+            return parseFile();
+        } catch (const Error& e) {
+            throw Error(withoutConfinementRoot(e.what()));
+        } catch (const std::filesystem::filesystem_error& e) {
+            throw Error(withoutConfinementRoot(e.what()));
+        }
+    }
+
+  private:
+    ParseResult parseFile() {
         std::ifstream file(m_path, std::ios::binary);
-        if (!file) fail("%s: cannot open the scene file: %s", m_path, std::strerror(errno));
+        if (!file) fail("%s: cannot open the scene file: %s", m_name, std::strerror(errno));
         if (std::filesystem::is_directory(m_path))
-            fail("%s: is a directory, not a scene file", m_path);
+            fail("%s: is a directory, not a scene file", m_name);
         std::stringstream buffer;
         buffer << file.rdbuf();
         m_text = buffer.str();
@@ -73,7 +104,7 @@ class Parser {
         if (!result) fail("%s: malformed XML: %s", location(result.offset), result.description());
 
         pugi::xml_node root = doc.document_element();
-        if (!root) fail("%s: the file has no root element", m_path);
+        if (!root) fail("%s: the file has no root element", m_name);
         if (!kObjectTags.count(root.name()))
             fail("%s: the root element must be <scene> or <test>, found <%s>",
                  location(root.offset_debug()), root.name());
@@ -83,7 +114,20 @@ class Parser {
         return out;
     }
 
-  private:
+    // Plugins name the files they could not read by their full path; inside a confinement root
+    // that is where the server keeps the bundle, which is none of the user's business.
+    std::string withoutConfinementRoot(std::string message) const {
+        std::vector<std::string> roots{m_policy.confinementRoot};
+        std::error_code error;
+        const std::string real =
+            std::filesystem::canonical(m_policy.confinementRoot, error).string();
+        if (!error && real != roots.front()) roots.push_back(real);
+        for (const std::string& root : roots)
+            if (root != "/")
+                message = absl::StrReplaceAll(message, {{root + "/", ""}, {root, "."}});
+        return message;
+    }
+
     std::string location(ptrdiff_t offset) const {
         int line = 1, column = 1;
         for (ptrdiff_t i = 0; i < offset && i < static_cast<ptrdiff_t>(m_text.size()); ++i) {
@@ -94,7 +138,7 @@ class Parser {
                 ++column;
             }
         }
-        return absl::StrFormat("%s:%d:%d", m_path, line, column);
+        return absl::StrFormat("%s:%d:%d", m_name, line, column);
     }
 
     template <typename... Args>
@@ -236,6 +280,7 @@ class Parser {
                                ? where + " (scene)"
                                : absl::StrFormat("%s (%s type=\"%s\")", where, node.name(), type));
         props.setBaseDirectory(m_baseDirectory);
+        props.setFileReferencePolicy(m_policy);
         props.setDependencyLog(m_dependencies);
 
         std::vector<std::pair<std::shared_ptr<Object>, std::string>> children;
@@ -323,7 +368,7 @@ class Parser {
         } catch (const Error& e) {
             // Re-anchor errors from the property list (e.g. duplicates) at this element.
             std::string message = e.what();
-            if (message.rfind(m_path, 0) == 0) throw;
+            if (message.rfind(m_name, 0) == 0) throw;
             failAt(node, "%s", message);
         }
     }
@@ -334,7 +379,9 @@ class Parser {
         if (props.has(name)) failAt(node, "property \"%s\" was specified more than once", name);
     }
 
-    std::string m_path;
+    std::string m_path;  // where the scene file is read from
+    std::string m_name;
+    FileReferencePolicy m_policy;
     std::string m_text;
     std::string m_baseDirectory;
     std::shared_ptr<std::vector<std::string>> m_dependencies =
@@ -343,14 +390,16 @@ class Parser {
 
 }  // namespace
 
-ParseResult parseSceneFile(const std::string& path) {
-    return Parser(path).parse();
+ParseResult parseSceneFile(const std::string& path, const FileReferencePolicy& policy) {
+    return Parser(path, policy).parse();
 }
 
-std::shared_ptr<Scene> loadScene(const std::string& path) {
-    ParseResult result = parseSceneFile(path);
+std::shared_ptr<Scene> loadScene(const std::string& path, const FileReferencePolicy& policy) {
+    Parser parser(path, policy);
+    ParseResult result = parser.parse();
     if (result.root->kind() != ObjectKind::Scene)
-        fail("%s: expected a <scene> root element, found <%s>", path, kindTag(result.root->kind()));
+        fail("%s: expected a <scene> root element, found <%s>", parser.name(),
+             kindTag(result.root->kind()));
     return std::static_pointer_cast<Scene>(result.root);
 }
 

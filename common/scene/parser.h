@@ -13,9 +13,11 @@ struct ParseResult {
     std::vector<std::string> dependencies;  // every file the scene refers to, resolved
 };
 
-// Parses a scene or test file; throws Error("file:line:col: problem") on any problem.
-ParseResult parseSceneFile(const std::string& path);
+// Parses a scene or test file; throws Error("file:line:col: problem") on any problem. The policy
+// says which files the scene may name (any, by default). With a confinement root (a farm job's
+// bundle), messages name files relative to the root, so they never show where it lies.
+ParseResult parseSceneFile(const std::string& path, const FileReferencePolicy& policy = {});
 // Parses a file whose root must be <scene>.
-std::shared_ptr<Scene> loadScene(const std::string& path);
+std::shared_ptr<Scene> loadScene(const std::string& path, const FileReferencePolicy& policy = {});
 
 }  // namespace alphorn

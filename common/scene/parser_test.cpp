@@ -124,5 +124,122 @@ TEST_F(ParserTest, MissingSceneFileIsAnError) {
     EXPECT_THROW(parseSceneFile(m_dir.string()), Error);
 }
 
+// A farm job's bundle: the scene in scenes/, the meshes in meshes/, and a file beside the bundle
+// standing in for the server's own files.
+class ConfinedParserTest : public ParserTest {
+  protected:
+    void SetUp() override {
+        ParserTest::SetUp();
+        namespace fs = std::filesystem;
+        m_bundle = m_dir / "bundle";
+        fs::create_directories(m_bundle / "scenes");
+        fs::create_directories(m_bundle / "meshes");
+        fs::copy_file(m_dir / "triangle.obj", m_bundle / "meshes/triangle.obj");
+        fs::copy_file(m_dir / "triangle.obj", m_dir / "outside.obj");
+        m_policy.confinementRoot = m_bundle.string();
+    }
+    std::string sceneNaming(const std::string& filename) {
+        const std::string path = (m_bundle / "scenes/s.xml").string();
+        std::ofstream(path) << sceneWith("<mesh type=\"obj\"><string name=\"filename\" value=\"" +
+                                         filename + "\"/></mesh>");
+        return path;
+    }
+    // Expects the confined load to fail with every fragment, and never to show where the bundle
+    // lies on disk.
+    void expectRefused(const std::string& filename, std::initializer_list<std::string> fragments) {
+        try {
+            loadScene(sceneNaming(filename), m_policy);
+            FAIL() << "\"" << filename << "\" was accepted";
+        } catch (const Error& e) {
+            const std::string message = e.what();
+            for (const std::string& f : fragments)
+                EXPECT_NE(message.find(f), std::string::npos)
+                    << "message \"" << message << "\" lacks \"" << f << "\"";
+            EXPECT_EQ(message.find(m_bundle.string()), std::string::npos) << message;
+        }
+    }
+
+    std::filesystem::path m_bundle;
+    FileReferencePolicy m_policy;
+};
+
+TEST_F(ConfinedParserTest, FilesInsideTheRootLoad) {
+    auto scene = loadScene(sceneNaming("../meshes/triangle.obj"), m_policy);
+    EXPECT_EQ(scene->meshes().size(), 1u);
+    // ".." that comes back inside is fine; so is a link whose target is inside.
+    EXPECT_NO_THROW(loadScene(sceneNaming("../meshes/../meshes/triangle.obj"), m_policy));
+    std::filesystem::create_symlink("triangle.obj", m_bundle / "meshes/alias.obj");
+    EXPECT_NO_THROW(loadScene(sceneNaming("../meshes/alias.obj"), m_policy));
+}
+
+TEST_F(ConfinedParserTest, AbsolutePathsAreRefused) {
+    const std::string outside = (m_dir / "outside.obj").string();
+    expectRefused(outside, {"scenes/s.xml:4:", "\"" + outside + "\" is an absolute path"});
+    expectRefused("/etc/shadow", {"scenes/s.xml:4:", "\"/etc/shadow\" is an absolute path"});
+    // Inside the root, but named absolutely: the scene must not know where its bundle lies.
+    const std::string inside = (m_bundle / "meshes/triangle.obj").string();
+    EXPECT_THROW(loadScene(sceneNaming(inside), m_policy), Error);
+}
+
+TEST_F(ConfinedParserTest, DotDotEscapesAreRefused) {
+    for (const std::string& escape :
+         {std::string("../../outside.obj"), std::string("../meshes/../../outside.obj"),
+          std::string("../../../../../../../../../../etc/shadow"),
+          std::string("../../bundle2/x.obj")})
+        expectRefused(escape, {"scenes/s.xml:4:", "\"" + escape + "\" leaves the scene bundle",
+                               "paths must stay inside it"});
+}
+
+TEST_F(ConfinedParserTest, SymbolicLinksLeadingOutAreRefused) {
+    std::filesystem::create_symlink(m_dir / "outside.obj", m_bundle / "meshes/link.obj");
+    expectRefused("../meshes/link.obj", {"scenes/s.xml:4:", "\"../meshes/link.obj\"",
+                                         "leaves the scene bundle through a symbolic link"});
+    std::filesystem::create_symlink(m_dir, m_bundle / "up");
+    expectRefused("../up/outside.obj", {"scenes/s.xml:4:", "symbolic link"});
+}
+
+TEST_F(ConfinedParserTest, EveryFileValuedPropertyIsConfined) {
+    const std::string texture = ALPHORN_SOURCE_DIR "/scenes/seed/textures/bumps_normal.png";
+    const std::string path = (m_bundle / "scenes/t.xml").string();
+    std::ofstream(path) << sceneWith(
+        "<mesh type=\"obj\"><string name=\"filename\" value=\"../meshes/triangle.obj\"/>\n"
+        "<bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"albedo\">"
+        "<string name=\"filename\" value=\"" +
+        texture + "\"/></texture></bsdf></mesh>");
+    EXPECT_NO_THROW(loadScene(path));  // on disk the texture loads
+    try {
+        loadScene(path, m_policy);
+        FAIL() << "the bitmap's absolute path was accepted";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("scenes/t.xml:5:"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("is an absolute path"), std::string::npos) << e.what();
+    }
+}
+
+TEST_F(ConfinedParserTest, MessagesNameFilesByTheirPlaceInTheRoot) {
+    // A missing file and a broken scene are reported as the user knows them, without the
+    // directory the bundle was materialized in.
+    expectRefused("../meshes/missing.obj", {"scenes/s.xml:4:", "\"meshes/missing.obj\""});
+    const std::string path = (m_bundle / "scenes/bad.xml").string();
+    std::ofstream(path) << "<scene>\n<integrator type=\"normals\"/>\n<camera type=\"nosuch\"/>\n";
+    try {
+        loadScene(path, m_policy);
+        FAIL() << "a malformed scene was accepted";
+    } catch (const Error& e) {
+        EXPECT_EQ(std::string(e.what()).rfind("scenes/bad.xml:", 0), 0u) << e.what();
+    }
+}
+
+TEST_F(ConfinedParserTest, LocalScenesMayNameAnyFile) {
+    // Without a root, a scene on disk may reach outside its folder or name absolute paths.
+    EXPECT_NO_THROW(loadScene(sceneNaming("../../outside.obj")));
+    EXPECT_NO_THROW(loadScene(sceneNaming((m_dir / "outside.obj").string())));
+    // Relative-only (what `alphorn submit` checks): ".." is fine, an absolute path is not.
+    FileReferencePolicy relativeOnly;
+    relativeOnly.relativeOnly = true;
+    EXPECT_NO_THROW(loadScene(sceneNaming("../../outside.obj"), relativeOnly));
+    EXPECT_THROW(loadScene(sceneNaming((m_dir / "outside.obj").string()), relativeOnly), Error);
+}
+
 }  // namespace
 }  // namespace alphorn

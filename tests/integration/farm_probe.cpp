@@ -1,7 +1,8 @@
 // alphorn_farm_probe: speaks the farm protocol directly, for the integration tests that need
-// calls the CLI and the worker never make: wrong tokens on every RPC, hostile bundles, broken
-// uploads, a result delivered after its lease expired. Each subcommand exits 0 when the
-// coordinator behaved as the contract says and prints what it checked.
+// calls the CLI and the worker never make: wrong tokens on every RPC, hostile bundles, scenes
+// naming files outside their bundle, broken uploads, a result delivered after its lease expired.
+// Each subcommand exits 0 when the coordinator behaved as the contract says and prints what it
+// checked.
 #include "alphorn/v1/client_service.grpc.pb.h"
 #include "alphorn/v1/worker_service.grpc.pb.h"
 #include "common/farm/film_codec.h"
@@ -235,6 +236,65 @@ int hostileInput(const std::string& address, const std::string& clientToken) {
     return failures ? 1 : 0;
 }
 
+// Submits bundles holding only a scene that names files outside the bundle: on the server
+// `outsideFile` exists and `stateDirectory` is where the coordinator keeps everything. Each must
+// be refused at submit naming the scene's file and line and the reference, with no server path
+// in the message (and so no job).
+int confinement(const std::string& address, const std::string& clientToken,
+                const std::string& outsideFile, const std::string& stateDirectory) {
+    auto client = v1::ClientService::NewStub(farm::makeChannel(address, ""));
+    auto sceneNaming = [](const std::string& element) {
+        return "<scene>\n  <integrator type=\"normals\"/>\n  <camera type=\"perspective\"/>\n" +
+               element + "\n</scene>\n";
+    };
+    auto mesh = [](const std::string& filename) {
+        return "  <mesh type=\"obj\"><string name=\"filename\" value=\"" + filename + "\"/></mesh>";
+    };
+    struct Case {
+        std::string what, scene;
+        std::vector<std::string> fragments;  // the message starts with the first
+    };
+    const std::string dotDots = "../../../../../../../../../../../../../../../..";
+    const std::vector<Case> cases = {
+        {"an absolute path to a server file",
+         sceneNaming(mesh(outsideFile)),
+         {"scene.xml:4:", "(mesh type=\"obj\"): \"" + outsideFile + "\" is an absolute path"}},
+        {"/etc/shadow",
+         sceneNaming(mesh("/etc/shadow")),
+         {"scene.xml:4:", "\"/etc/shadow\" is an absolute path"}},
+        {"a \"..\" escape to a server file",
+         sceneNaming(mesh(dotDots + outsideFile)),
+         {"scene.xml:4:",
+          "\"" + dotDots + outsideFile + "\" leaves the scene bundle; paths must stay inside it"}},
+        {"a \"..\" escape to a file beside the bundle",
+         sceneNaming(mesh("../x.obj")),
+         {"scene.xml:4:", "\"../x.obj\" leaves the scene bundle"}},
+        {"a bitmap texture's absolute path",
+         sceneNaming("  <mesh type=\"obj\"><string name=\"filename\" value=\"m.obj\"/>\n"
+                     "    <bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"albedo\">"
+                     "<string name=\"filename\" value=\"" +
+                     outsideFile + "\"/></texture></bsdf></mesh>"),
+         {"scene.xml:5:", "(texture type=\"bitmap\")", "is an absolute path"}},
+        {"a missing file inside the bundle",
+         sceneNaming(mesh("meshes/none.obj")),
+         {"scene.xml:4:", "cannot open OBJ file \"meshes/none.obj\""}},
+    };
+    for (const Case& c : cases) {
+        const grpc::Status status =
+            submitBundle(*client, clientToken, {{"scene.xml", c.scene}}, "scene.xml");
+        const std::string& message = status.error_message();
+        bool ok = status.error_code() == grpc::StatusCode::INVALID_ARGUMENT &&
+                  message.rfind(c.fragments.front(), 0) == 0;
+        for (const std::string& fragment : c.fragments)
+            ok = ok && message.find(fragment) != std::string::npos;
+        expect(ok, c.what + " is refused at submit: " + message);
+        expect(message.find(stateDirectory) == std::string::npos &&
+                   message.find("no faces") == std::string::npos,
+               c.what + ": the message shows no server path and nothing read from the file");
+    }
+    return failures ? 1 : 0;
+}
+
 // Acquires a unit as a fake worker, waits until its lease expired and the job was finished by
 // real workers, then delivers a wrong film for it: the coordinator must drop it.
 int lateResult(const std::string& address, const std::string& workerToken,
@@ -319,12 +379,15 @@ int main(int argc, char** argv) {
         return authMatrix(args[1], farm::readTokenFile(args[2]), farm::readTokenFile(args[3]));
     if (args.size() == 3 && args[0] == "hostile-input")
         return hostileInput(args[1], farm::readTokenFile(args[2]));
+    if (args.size() == 5 && args[0] == "confinement")
+        return confinement(args[1], farm::readTokenFile(args[2]), args[3], args[4]);
     if (args.size() == 5 && args[0] == "late-result")
         return lateResult(args[1], farm::readTokenFile(args[2]), farm::readTokenFile(args[3]),
                           std::stoull(args[4]));
     std::cerr
         << "usage: alphorn_farm_probe auth-matrix ADDR CLIENT_TOKEN_FILE WORKER_TOKEN_FILE\n"
            "       alphorn_farm_probe hostile-input ADDR CLIENT_TOKEN_FILE\n"
+           "       alphorn_farm_probe confinement ADDR CLIENT_TOKEN_FILE OUTSIDE_FILE STATE_DIR\n"
            "       alphorn_farm_probe late-result ADDR WORKER_TOKEN_FILE CLIENT_TOKEN_FILE JOB\n";
     return 2;
 }

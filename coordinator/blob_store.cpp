@@ -3,6 +3,7 @@
 #include "common/core/error.h"
 #include "common/farm/files.h"
 
+#include <absl/strings/str_replace.h>
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -117,7 +118,13 @@ bool BlobStore::Upload::commit() {
     const std::string target = m_store.pathOf(m_claimed);
     if (fs::exists(target)) return false;  // the destructor drops the duplicate
     fs::create_directories(fs::path(target).parent_path());
-    farm::publishFileAtomically(m_temporaryPath, target);
+    try {
+        farm::publishFileAtomically(m_temporaryPath, target);
+    } catch (const Error& e) {
+        // The client sees this: name the blob, not the server's directories.
+        fail("cannot store blob %s: %s", m_claimed,
+             absl::StrReplaceAll(e.what(), {{m_store.m_directory + "/", ""}}));
+    }
     m_committed = true;
     return true;
 }

@@ -9,6 +9,7 @@
 #include "common/farm/sha256.h"
 #include "common/scene/scene.h"
 
+#include <absl/strings/str_replace.h>
 #include <google/protobuf/io/coded_stream.h>
 #include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 #include <unistd.h>
@@ -294,7 +295,13 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
             std::to_string(lease.unit().unit_index()) + " in " + std::to_string(seconds) + " s");
     } catch (const std::exception& e) {
         log(std::string("unit failed: ") + e.what());
-        header.set_error(e.what());
+        // The error reaches the job's owner: it names files by bundle path, never this
+        // machine's directories.
+        const std::string cache =
+            fs::absolute(m_options.cacheDirectory).lexically_normal().string();
+        header.set_error(
+            absl::StrReplaceAll(e.what(), {{cache + "/", "<worker cache>/"},
+                                           {m_options.cacheDirectory + "/", "<worker cache>/"}}));
     }
     return result;
 }

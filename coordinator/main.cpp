@@ -81,8 +81,7 @@ int main(int argc, char** argv) {
         grpc::ServerBuilder builder;
         int port = 0;
         builder.AddListeningPort(listen, farm::makeServerCredentials(tlsCert, tlsKey), &port);
-        builder.SetMaxReceiveMessageSize(farm::kMaxMessageBytes);
-        builder.SetMaxSendMessageSize(farm::kMaxMessageBytes);
+        farm::configureServer(builder);
         builder.RegisterService(&clientService);
         builder.RegisterService(&workerService);
         std::unique_ptr<grpc::Server> server = builder.BuildAndStart();

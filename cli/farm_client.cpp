@@ -93,12 +93,13 @@ FarmClient::FarmClient(const FarmConnectionOptions& options) {
     m_channel = farm::makeChannel(address, tlsCa);
     m_stub = v1::ClientService::NewStub(m_channel);
     waitForCoordinator(Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                          std::chrono::duration<double>(m_reconnectSeconds)));
+                                          std::chrono::duration<double>(m_reconnectSeconds)),
+                       true);
 }
 
-void FarmClient::waitForCoordinator(Clock::time_point deadline) {
+void FarmClient::waitForCoordinator(Clock::time_point deadline, bool announce) {
     const auto start = Clock::now();
-    bool probed = false, announced = false;
+    bool probed = false, announced = !announce;
     grpc_connectivity_state state = m_channel->GetState(true);
     while (state != GRPC_CHANNEL_READY) {
         if (state == GRPC_CHANNEL_TRANSIENT_FAILURE && !probed) {
@@ -116,15 +117,19 @@ void FarmClient::waitForCoordinator(Clock::time_point deadline) {
         }
         // Waiting here is also what moves the connection attempt forward (see makeContext).
         const auto step = std::min(deadline, Clock::now() + std::chrono::seconds(1));
-        if (!m_channel->WaitForStateChange(state, toSystemClock(step)) && Clock::now() >= deadline)
+        if (!m_channel->WaitForStateChange(state, toSystemClock(step)) &&
+            Clock::now() >= deadline) {
+            const double waited = secondsSince(start);
+            const bool refused =
+                farm::probeWireProtocol(m_address, std::chrono::milliseconds(1000)) ==
+                farm::WireProtocol::Unreachable;
             fail(
                 "cannot reach the coordinator at %s: no connection within %.0f s (%s; "
                 "--reconnect-seconds sets how long to wait)",
-                m_address, secondsSince(start),
-                farm::probeWireProtocol(m_address, std::chrono::milliseconds(1000)) ==
-                        farm::WireProtocol::Unreachable
-                    ? "nothing accepts connections there"
-                    : "it accepts connections but does not complete a gRPC connection");
+                m_address, waited,
+                refused ? "nothing accepts connections there"
+                        : "it accepts connections but does not complete a gRPC connection");
+        }
         state = m_channel->GetState(true);
     }
 }
@@ -249,7 +254,8 @@ v1::JobStatus FarmClient::watch(uint64_t jobId, bool quiet) {
         if (!received) std::this_thread::sleep_for(std::chrono::milliseconds(200));
         try {
             waitForCoordinator(lostAt + std::chrono::duration_cast<Clock::duration>(
-                                            std::chrono::duration<double>(m_reconnectSeconds)));
+                                            std::chrono::duration<double>(m_reconnectSeconds)),
+                               false);
         } catch (const Error& e) {
             fail("job %u: %s; the job itself goes on: `alphorn watch %u` follows it again", jobId,
                  e.what(), jobId);

@@ -53,8 +53,9 @@ class FarmClient {
     void fetchImages(uint64_t jobId, const std::string& exrPath, bool preview);
 
   private:
-    // Blocks until the channel is connected; throws Error as the constructor says.
-    void waitForCoordinator(std::chrono::steady_clock::time_point deadline);
+    // Blocks until the channel is connected; throws Error as the constructor says. With
+    // `announce`, says on stderr that it waits when that takes more than two seconds.
+    void waitForCoordinator(std::chrono::steady_clock::time_point deadline, bool announce);
 
     std::string m_address;
     bool m_tls = false;

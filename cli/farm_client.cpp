@@ -10,6 +10,8 @@
 #include <absl/strings/str_format.h>
 #include <google/protobuf/util/json_util.h>
 
+#include <unistd.h>
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -32,8 +34,48 @@ void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options) {
                     "Client token file (or $ALPHORN_TOKEN_FILE)");
     sub->add_option("--tls-ca", options.tlsCa,
                     "CA certificate to verify a TLS coordinator (or $ALPHORN_TLS_CA)");
+    sub->add_option("--reconnect-seconds", options.reconnectSeconds,
+                    "How long to wait for an unreachable or restarting coordinator before giving "
+                    "up")
+        ->capture_default_str()
+        ->check(CLI::Range(0.0, 86400.0));
     sub->add_flag("--json", options.json, "Machine-readable JSON on stdout");
 }
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::chrono::system_clock::time_point toSystemClock(Clock::time_point when) {
+    return std::chrono::system_clock::now() +
+           std::chrono::duration_cast<std::chrono::system_clock::duration>(when - Clock::now());
+}
+
+double secondsSince(Clock::time_point start) {
+    return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// A line of its own on stderr, also when a progress bar occupies the current one.
+void note(const std::string& line) {
+    if (isatty(STDERR_FILENO)) std::cerr << "\r\033[K";
+    std::cerr << line << std::endl;
+}
+
+// A status by which a WatchJob stream ended because the coordinator went away (stopped,
+// restarted, unreachable), not because the request was wrong.
+bool coordinatorWentAway(const grpc::Status& status) {
+    switch (status.error_code()) {
+        case grpc::StatusCode::UNAVAILABLE:
+        case grpc::StatusCode::CANCELLED:  // the server cancels open calls when it stops
+        case grpc::StatusCode::ABORTED:
+        case grpc::StatusCode::OK:  // the stream ended while the job was still running
+            return true;
+        default:
+            return false;
+    }
+}
+
+}  // namespace
 
 FarmClient::FarmClient(const FarmConnectionOptions& options) {
     std::string address =
@@ -45,7 +87,51 @@ FarmClient::FarmClient(const FarmConnectionOptions& options) {
         fail("no coordinator: pass --coordinator HOST:PORT or set ALPHORN_COORDINATOR");
     if (tokenFile.empty()) fail("no token: pass --token-file F or set ALPHORN_TOKEN_FILE");
     m_token = farm::readTokenFile(tokenFile);
-    m_stub = v1::ClientService::NewStub(farm::makeChannel(address, tlsCa));
+    m_address = address;
+    m_tls = !tlsCa.empty();
+    m_reconnectSeconds = options.reconnectSeconds;
+    m_channel = farm::makeChannel(address, tlsCa);
+    m_stub = v1::ClientService::NewStub(m_channel);
+    waitForCoordinator(Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                          std::chrono::duration<double>(m_reconnectSeconds)),
+                       true);
+}
+
+void FarmClient::waitForCoordinator(Clock::time_point deadline, bool announce) {
+    const auto start = Clock::now();
+    bool probed = false, announced = !announce;
+    grpc_connectivity_state state = m_channel->GetState(true);
+    while (state != GRPC_CHANNEL_READY) {
+        if (state == GRPC_CHANNEL_TRANSIENT_FAILURE && !probed) {
+            // A coordinator speaking the other protocol closes every attempt; waiting for it
+            // would never help, so say so at once.
+            probed = true;
+            const std::string hint =
+                farm::protocolMismatchHint(m_address, m_tls, "--tls-ca (or ALPHORN_TLS_CA)");
+            if (!hint.empty()) fail("%s", hint);
+        }
+        if (!announced && secondsSince(start) >= 2.0) {
+            announced = true;
+            note(absl::StrFormat("waiting for the coordinator at %s (giving up after %.0f s)",
+                                 m_address, std::max(0.0, m_reconnectSeconds)));
+        }
+        // Waiting here is also what moves the connection attempt forward (see makeContext).
+        const auto step = std::min(deadline, Clock::now() + std::chrono::seconds(1));
+        if (!m_channel->WaitForStateChange(state, toSystemClock(step)) &&
+            Clock::now() >= deadline) {
+            const double waited = secondsSince(start);
+            const bool refused =
+                farm::probeWireProtocol(m_address, std::chrono::milliseconds(1000)) ==
+                farm::WireProtocol::Unreachable;
+            fail(
+                "cannot reach the coordinator at %s: no connection within %.0f s (%s; "
+                "--reconnect-seconds sets how long to wait)",
+                m_address, waited,
+                refused ? "nothing accepts connections there"
+                        : "it accepts connections but does not complete a gRPC connection");
+        }
+        state = m_channel->GetState(true);
+    }
 }
 
 std::unique_ptr<grpc::ClientContext> FarmClient::context(std::chrono::milliseconds timeout) const {
@@ -115,15 +201,26 @@ v1::JobStatus FarmClient::submit(const std::string& scenePath, const v1::JobSett
 v1::JobStatus FarmClient::watch(uint64_t jobId, bool quiet) {
     v1::WatchJobRequest request;
     request.set_job_id(jobId);
-    int attempt = 0;
     std::unique_ptr<ProgressLine> progress;
     v1::JobStatus last;
+    bool lost = false;         // the coordinator went away and has not sent a status since
+    Clock::time_point lostAt;  // when it went away
     for (;;) {
-        auto ctx = context(std::chrono::milliseconds(int64_t(30) * 24 * 3600 * 1000));
+        // Not waiting for ready: the channel was just found connected, and should the
+        // coordinator go away again this very moment, the failure leads back to
+        // waitForCoordinator() and its time limit rather than into an unbounded wait.
+        auto ctx = farm::makeContext(
+            m_token, std::chrono::milliseconds(int64_t(30) * 24 * 3600 * 1000), false);
         auto reader = m_stub->WatchJob(ctx.get(), request);
         v1::JobStatus status;
+        bool received = false;
         while (reader->Read(&status)) {
-            attempt = 0;
+            received = true;
+            if (lost) {
+                note(absl::StrFormat("job %u: reconnected to the coordinator after %.1f s", jobId,
+                                     secondsSince(lostAt)));
+                lost = false;
+            }
             last = status;
             if (quiet) continue;
             if (!progress)
@@ -136,19 +233,33 @@ v1::JobStatus FarmClient::watch(uint64_t jobId, bool quiet) {
                                 status.units_done(), status.units_total(),
                                 status.has_photon_radius()
                                     ? absl::StrFormat("  radius %.4g", status.photon_radius())
-                                    : ""));
+                                    : ""),
+                status.elapsed_seconds(), status.eta_seconds());
         }
         grpc::Status finished = reader->Finish();
         if (finished.ok() && last.state() != v1::JOB_STATE_RUNNING &&
             last.state() != v1::JOB_STATE_UNSPECIFIED)
             break;
-        // The coordinator went away (restart): keep watching once it is back.
-        const bool transient =
-            finished.error_code() == grpc::StatusCode::UNAVAILABLE || finished.ok();
-        if (!transient || attempt > 60) check(finished, "WatchJob");
-        std::this_thread::sleep_for(
-            std::chrono::milliseconds(std::min(2000, 100 << std::min(attempt, 5))));
-        ++attempt;
+        if (!coordinatorWentAway(finished)) check(finished, "WatchJob");
+        if (!lost) {
+            lost = true;
+            lostAt = Clock::now();
+            note(absl::StrFormat(
+                "job %u: coordinator restarted, reconnecting (the connection ended: %s; giving up "
+                "after %.0f s)",
+                jobId, finished.ok() ? "closed by the coordinator" : finished.error_message(),
+                m_reconnectSeconds));
+        }
+        // A coordinator that is stopping may still look connected for a moment; do not spin.
+        if (!received) std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        try {
+            waitForCoordinator(lostAt + std::chrono::duration_cast<Clock::duration>(
+                                            std::chrono::duration<double>(m_reconnectSeconds)),
+                               false);
+        } catch (const Error& e) {
+            fail("job %u: %s; the job itself goes on: `alphorn watch %u` follows it again", jobId,
+                 e.what(), jobId);
+        }
     }
     if (progress) progress->finish(farm::jobStateName(last.state()));
     return last;

@@ -21,13 +21,19 @@ struct FarmConnectionOptions {
     std::string tokenFile;    // default: $ALPHORN_TOKEN_FILE
     std::string tlsCa;        // default: $ALPHORN_TLS_CA; nonempty means TLS
     bool json = false;
+    // How long a client waits for an unreachable coordinator (at the start, or after losing it
+    // while watching a job) before it gives up.
+    double reconnectSeconds = 60.0;
 };
 
-// Adds --coordinator, --token-file, --tls-ca and --json to a subcommand.
+// Adds --coordinator, --token-file, --tls-ca, --reconnect-seconds and --json to a subcommand.
 void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options);
 
 class FarmClient {
   public:
+    // Connects to the coordinator, waiting for it up to options.reconnectSeconds; throws Error
+    // when it does not answer by then, or at once when it speaks the other protocol (TLS or
+    // plaintext) than this client.
     explicit FarmClient(const FarmConnectionOptions& options);
 
     v1::ClientService::Stub& stub() { return *m_stub; }
@@ -47,7 +53,15 @@ class FarmClient {
     void fetchImages(uint64_t jobId, const std::string& exrPath, bool preview);
 
   private:
+    // Blocks until the channel is connected; throws Error as the constructor says. With
+    // `announce`, says on stderr that it waits when that takes more than two seconds.
+    void waitForCoordinator(std::chrono::steady_clock::time_point deadline, bool announce);
+
+    std::string m_address;
+    bool m_tls = false;
+    double m_reconnectSeconds = 60.0;
     std::string m_token;
+    std::shared_ptr<grpc::Channel> m_channel;
     std::unique_ptr<v1::ClientService::Stub> m_stub;
 };
 

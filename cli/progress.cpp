@@ -22,11 +22,22 @@ ProgressLine::ProgressLine(std::string label, uint64_t total)
       m_lastPrint(m_start) {}
 
 void ProgressLine::update(uint64_t done, const std::string& extra) {
+    double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
+    double fraction = m_total ? double(done) / double(m_total) : 1.0;
+    show(done, extra, elapsed, fraction > 0.0 ? elapsed * (1.0 - fraction) / fraction : -1.0);
+}
+
+void ProgressLine::update(uint64_t done, const std::string& extra, double elapsedSeconds,
+                          double etaSeconds) {
+    m_reportedElapsed = elapsedSeconds;
+    show(done, extra, elapsedSeconds, etaSeconds);
+}
+
+void ProgressLine::show(uint64_t done, const std::string& extra, double elapsed, double eta) {
     m_done = done;
     auto now = std::chrono::steady_clock::now();
-    double elapsed = std::chrono::duration<double>(now - m_start).count();
     double fraction = m_total ? double(done) / double(m_total) : 1.0;
-    double eta = fraction > 0.0 ? elapsed * (1.0 - fraction) / fraction : -1.0;
     if (m_tty) {
         if (done < m_total && now - m_lastPrint < std::chrono::milliseconds(100)) return;
         const int width = 30;
@@ -51,7 +62,9 @@ void ProgressLine::update(uint64_t done, const std::string& extra) {
 
 void ProgressLine::finish(const std::string& outcome) {
     double elapsed =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
+        m_reportedElapsed >= 0.0
+            ? m_reportedElapsed
+            : std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
     if (m_tty) std::fprintf(stderr, "\r\033[K");
     std::fprintf(stderr, "%s: %s, %llu/%llu passes in %s\n", m_label.c_str(), outcome.c_str(),
                  (unsigned long long)m_done, (unsigned long long)m_total,

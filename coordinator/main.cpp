@@ -91,8 +91,7 @@ int main(int argc, char** argv) {
         // Without this gRPC sets SO_REUSEPORT and a second coordinator on the same port starts
         // too, taking part of the clients' calls.
         builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
-        builder.SetMaxReceiveMessageSize(farm::kMaxMessageBytes);
-        builder.SetMaxSendMessageSize(farm::kMaxMessageBytes);
+        farm::configureServer(builder);
         builder.RegisterService(&clientService);
         builder.RegisterService(&workerService);
         std::unique_ptr<grpc::Server> server = builder.BuildAndStart();

@@ -21,7 +21,7 @@ case $daemon in
 coordinator)
     : "${ALPHORN_COORDINATOR:=127.0.0.1:7700}" "${ALPHORN_TOKEN_FILE:=/run/secrets/client_token}"
     export ALPHORN_COORDINATOR ALPHORN_TOKEN_FILE
-    exec alphorn workers >/dev/null
+    exec alphorn workers --reconnect-seconds 5 >/dev/null  # fail within the check's timeout
     ;;
 "")
     echo "no alphorn daemon runs in this container"

@@ -14,6 +14,7 @@
 #include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -122,10 +123,12 @@ void Worker::requestStop() {
 }
 
 void Worker::sleepBackoff(int& attempt) {
-    // Exponential backoff with jitter: 100 ms doubling to 5 s, so a restarted coordinator is not
-    // stampeded by every worker at once.
+    // Exponential backoff with jitter: 100 ms doubling to 1 s, so a restarted coordinator is not
+    // stampeded by every worker at once. It stays short because the calls themselves wait for
+    // an unreachable coordinator (makeContext), and nothing drives a reconnection while this
+    // thread sleeps: a longer pause would only delay finding the coordinator back.
     static thread_local std::mt19937 random(std::random_device{}());
-    const double base = std::min(5000.0, 100.0 * std::pow(2.0, attempt));
+    const double base = std::min(1000.0, 100.0 * std::pow(2.0, attempt));
     const double jittered = base * std::uniform_real_distribution<double>(0.5, 1.0)(random);
     ++attempt;
     std::unique_lock lock(m_leaseMutex);
@@ -157,8 +160,12 @@ void Worker::registerWithCoordinator() {
         if (!transient(status))
             fail("the coordinator refused registration: %s", status.error_message());
         if (m_stopRequests > 0) fail("stopping before the coordinator could be reached");
-        if (attempt == 0)
+        if (attempt == 0) {
             log("coordinator unavailable (" + status.error_message() + "); retrying with backoff");
+            const std::string hint = farm::protocolMismatchHint(
+                m_options.coordinator, !m_options.tlsCaPath.empty(), "--tls-ca");
+            if (!hint.empty()) log(hint);
+        }
         sleepBackoff(attempt);
     }
 }
@@ -308,9 +315,10 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
 
 bool Worker::deliver(Result& result) {
     int attempt = 0;
-    const auto giveUpAt = std::chrono::steady_clock::now() +
-                          std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                              std::chrono::duration<double>(m_options.drainSeconds));
+    const auto firstTry = std::chrono::steady_clock::now();
+    const auto giveUpAt =
+        firstTry + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                       std::chrono::duration<double>(m_options.drainSeconds));
     for (;;) {
         {
             std::lock_guard lock(m_leaseMutex);
@@ -326,7 +334,14 @@ bool Worker::deliver(Result& result) {
             }
             result.header.set_worker_id(m_workerId);
         }
-        auto ctx = context(120s);
+        // The call waits for a coordinator that is away (restarting) and goes out the moment it
+        // is back; when stopping, no longer than the drain time left.
+        auto timeout = std::chrono::milliseconds(120s);
+        if (m_stopRequests > 0)
+            timeout = std::clamp(std::chrono::duration_cast<std::chrono::milliseconds>(
+                                     giveUpAt - std::chrono::steady_clock::now()),
+                                 std::chrono::milliseconds(1000), timeout);
+        auto ctx = context(timeout);
         v1::ReportResultResponse response;
         auto writer = m_stub->ReportResult(ctx.get(), &response);
         size_t offset = 0;
@@ -347,6 +362,14 @@ bool Worker::deliver(Result& result) {
         if (!writeFailed) writer->WritesDone();
         grpc::Status status = writer->Finish();
         if (status.ok()) {
+            if (attempt > 0)
+                log("delivered unit " + std::to_string(result.header.unit_index()) + " of job " +
+                    std::to_string(result.header.job_id()) + " after " + std::to_string(attempt) +
+                    " failed attempts (" +
+                    std::to_string(
+                        std::chrono::duration<double>(std::chrono::steady_clock::now() - firstTry)
+                            .count()) +
+                    " s)");
             if (response.disposition() == v1::RESULT_DISCARDED)
                 log("the coordinator discarded unit " + std::to_string(result.header.unit_index()) +
                     " of job " + std::to_string(result.header.job_id()) +
@@ -407,6 +430,7 @@ int Worker::run() {
             sleepBackoff(attempt);
             continue;
         }
+        if (attempt > 0) log("the coordinator answers again");
         attempt = 0;
         if (!lease.has_work()) continue;
         {

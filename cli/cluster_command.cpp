@@ -202,9 +202,11 @@ Command addClusterCommand(CLI::App& app) {
                     "Render this scene through the cluster, then stop")
         ->check(CLI::ExistingFile);
     sub->add_option("-o,--output", options->submit.output,
-                    "With --render: output EXR (default: out/SCENE.exr)");
+                    "With --render: output EXR (default: out/SCENE.exr)")
+        ->check(kExrOutputPath);
     sub->add_option("--passes,--spp", options->submit.passes,
-                    "With --render: passes (default: the scene's sampleCount)");
+                    "With --render: passes (default: the scene's sampleCount)")
+        ->check(kPositiveCount);
     sub->add_option("--seed", options->submit.seed, "With --render: random seed");
     sub->add_option("--tile", options->submit.tile, "With --render: tile size");
     sub->add_flag("--json", options->json, "With --render: print the final job status as JSON");

@@ -11,6 +11,28 @@ namespace alphorn::cli {
 
 using Command = std::pair<CLI::App*, std::function<int()>>;
 
+// Checks an -o path: it names the EXR, and the PNG is written beside it with the same stem, so
+// it must end in ".exr" (an "x.png" would have the PNG written over the EXR).
+inline const CLI::Validator kExrOutputPath(
+    [](std::string& path) -> std::string {
+        const std::string extension = ".exr";
+        if (path.size() > extension.size() &&
+            CLI::detail::to_lower(path.substr(path.size() - extension.size())) == extension)
+            return "";
+        return "-o names the EXR file (a PNG is written beside it): \"" + path +
+               "\" does not end in .exr";
+    },
+    "PATH.exr");
+
+// Checks a count such as --passes: 0 is refused rather than read as "the default".
+inline const CLI::Validator kPositiveCount(
+    [](std::string& value) -> std::string {
+        return value.find_first_not_of("0") == std::string::npos
+                   ? "must be at least 1, got " + value
+                   : "";
+    },
+    "N>=1");
+
 Command addRenderCommand(CLI::App& app);
 // The render farm client (cli/farm_commands.cpp) and the one-machine farm
 // (cli/cluster_command.cpp).

@@ -89,8 +89,11 @@ Command addSubmitCommand(CLI::App& app) {
         ->required()
         ->check(CLI::ExistingFile);
     auto* passes = sub->add_option("--passes", options->passes,
-                                   "Number of passes (default: the scene's sampleCount)");
-    sub->add_option("--spp", *spp, "Samples per pixel (= passes)")->excludes(passes);
+                                   "Number of passes (default: the scene's sampleCount)")
+                       ->check(kPositiveCount);
+    sub->add_option("--spp", *spp, "Samples per pixel (= passes)")
+        ->excludes(passes)
+        ->check(kPositiveCount);
     sub->add_option("--seed", options->seed, "Random seed; the image is a pure function of it");
     sub->add_option("--tile", options->tile, "Tile size in pixels (does not change the image)");
     sub->add_option("--passes-per-unit", options->passesPerUnit,
@@ -101,7 +104,8 @@ Command addSubmitCommand(CLI::App& app) {
                     "Use this integrator type instead of the scene's");
     sub->add_flag("--watch", options->watch, "Follow the job until it ends");
     sub->add_option("-o,--output", options->output,
-                    "Wait for the job and write this EXR (and a PNG beside it)");
+                    "Wait for the job and write this EXR (and a PNG beside it)")
+        ->check(kExrOutputPath);
     addConnectionOptions(sub, *connection);
     return {sub, [=] {
                 if (*spp) options->passes = *spp;
@@ -180,7 +184,8 @@ Command addFetchCommand(CLI::App& app) {
     CLI::App* sub = app.add_subcommand("fetch", "Download a farm job's image (EXR and PNG).");
     sub->add_option("job", *jobId, "Job id")->required();
     sub->add_option("-o,--output", *output, "Output EXR path; a PNG is written beside it")
-        ->required();
+        ->required()
+        ->check(kExrOutputPath);
     sub->add_flag("--preview", *preview, "The image merged so far, for a job still running");
     addConnectionOptions(sub, *connection);
     return {sub, [=] {

@@ -96,11 +96,14 @@ Command addRenderCommand(CLI::App& app) {
         ->required()
         ->check(CLI::ExistingFile);
     sub->add_option("-o,--output", options->output,
-                    "Output EXR path; a PNG is written beside it (default: out/SCENE.exr)");
+                    "Output EXR path; a PNG is written beside it (default: out/SCENE.exr)")
+        ->check(kExrOutputPath);
     auto* spp = sub->add_option("--spp", options->spp,
-                                "Samples per pixel (= passes; default: the scene's sampleCount)");
+                                "Samples per pixel (= passes; default: the scene's sampleCount)")
+                    ->check(kPositiveCount);
     sub->add_option("--passes", options->passes, "Number of passes (one sample per pixel each)")
-        ->excludes(spp);
+        ->excludes(spp)
+        ->check(kPositiveCount);
     sub->add_option("--threads", options->threads, "Worker threads (default: all cores)")
         ->check(CLI::Range(0, 1024));
     sub->add_option("--seed", options->seed, "Random seed; the image is a pure function of it");

@@ -7,13 +7,15 @@
 # process may hang (every wait is bounded).
 #
 # The schedule is a function of the seed: CHAOS_SEED=N CHAOS_STEPS=K bash farm_chaos.sh replays
-# it (timings differ between runs; the actions and their order do not). CI runs a short schedule
-# with a fresh seed each time and prints it; tools/chaos-soak.sh runs long ones.
+# it (timings differ between runs; the actions and their order do not). CI runs one short
+# schedule; tools/chaos-soak.sh runs long ones with fresh seeds.
 source "$(dirname "$0")/farm_lib.sh"
 trap 'echo "FAIL: line $LINENO: $BASH_COMMAND exited non-zero" >&2' ERR
 
-seed=${CHAOS_SEED:-$((($(date +%s) * 7919 + $$) % 1000000))}
-steps=${CHAOS_STEPS:-10}
+# CI's default schedule (seed 8, 14 steps) restarts the coordinator with several jobs resumed,
+# the case that once gave a job another job's scene; soaks pass other seeds.
+seed=${CHAOS_SEED:-8}
+steps=${CHAOS_STEPS:-14}
 RANDOM=$seed
 echo "chaos seed $seed, $steps steps (replay: CHAOS_SEED=$seed CHAOS_STEPS=$steps)"
 # uniform PERIOD_MS_MIN PERIOD_MS_MAX: a random number of seconds, printed as "S.mmm".

@@ -1,6 +1,7 @@
 #include "common/photon/sphere_bvh.h"
 
 #include "common/core/error.h"
+#include "common/scene/accel.h"
 
 #include <algorithm>
 
@@ -166,9 +167,7 @@ EmbreeSphereIndex::EmbreeSphereIndex(std::vector<Point3f> centres, std::vector<f
     : m_centres(std::move(centres)), m_radii(std::move(radii)) {
     if (m_radii.size() != 1 && m_radii.size() != m_centres.size())
         fail("EmbreeSphereIndex: %d radii for %d spheres", m_radii.size(), m_centres.size());
-    // One build thread: Embree's own threads would compete with oneTBB's pool (as in Accel).
-    m_device = rtcNewDevice("threads=1");
-    if (!m_device) fail("Embree could not create a device (error %d)", rtcGetDeviceError(nullptr));
+    m_device = newEmbreeDevice();
     m_scene = rtcNewScene(m_device);
     rtcSetSceneBuildQuality(m_scene, RTC_BUILD_QUALITY_HIGH);
     if (!m_centres.empty()) {
@@ -181,7 +180,7 @@ EmbreeSphereIndex::EmbreeSphereIndex(std::vector<Point3f> centres, std::vector<f
         rtcAttachGeometry(m_scene, geometry);
         rtcReleaseGeometry(geometry);
     }
-    rtcCommitScene(m_scene);
+    commitEmbreeScene(m_scene);
     const RTCError error = rtcGetDeviceError(m_device);
     if (error != RTC_ERROR_NONE) fail("Embree failed to build the sphere BVH (error %d)", error);
 }

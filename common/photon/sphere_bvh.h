@@ -79,7 +79,8 @@ class SphereBvh {
 
 // The same query over Embree's BVH: the spheres are user geometry whose intersection callback
 // applies segmentCrossesSphere() and records the sphere without reporting a hit, so that
-// traversal visits every crossed sphere. Built on a one-thread device (deterministic).
+// traversal visits every crossed sphere. Built by one thread (commitEmbreeScene: deterministic),
+// without capping the process's threads.
 class EmbreeSphereIndex {
   public:
     EmbreeSphereIndex(std::vector<Point3f> centres, std::vector<float> radii);

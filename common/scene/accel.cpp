@@ -2,12 +2,25 @@
 
 #include "common/core/error.h"
 
+#include <tbb/task_arena.h>
+
 namespace alphorn {
 
 static thread_local uint64_t t_rayCount = 0;
 
 uint64_t raysTracedByThisThread() {
     return t_rayCount;
+}
+
+RTCDevice newEmbreeDevice() {
+    RTCDevice device = rtcNewDevice(nullptr);
+    if (!device) fail("Embree could not create a device (error %d)", rtcGetDeviceError(nullptr));
+    return device;
+}
+
+void commitEmbreeScene(RTCScene scene) {
+    tbb::task_arena oneThread(1);
+    oneThread.execute([&] { rtcCommitScene(scene); });
 }
 
 Accel::~Accel() {
@@ -23,9 +36,7 @@ void Accel::release() {
 
 void Accel::build(const std::vector<std::shared_ptr<Mesh>>& meshes) {
     release();
-    // Embree's own threads would compete with oneTBB's pool; one thread builds deterministically.
-    m_device = rtcNewDevice("threads=1");
-    if (!m_device) fail("Embree could not create a device (error %d)", rtcGetDeviceError(nullptr));
+    m_device = newEmbreeDevice();
     m_scene = rtcNewScene(m_device);
     rtcSetSceneBuildQuality(m_scene, RTC_BUILD_QUALITY_HIGH);
     m_meshes.clear();
@@ -48,7 +59,7 @@ void Accel::build(const std::vector<std::shared_ptr<Mesh>>& meshes) {
         m_meshes.push_back(mesh.get());
         m_bounds.extend(mesh->bounds());
     }
-    rtcCommitScene(m_scene);
+    commitEmbreeScene(m_scene);
     RTCError error = rtcGetDeviceError(m_device);
     if (error != RTC_ERROR_NONE) fail("Embree failed to build the scene BVH (error %d)", error);
 }

@@ -34,4 +34,17 @@ class Accel {
 // Rays traced by the calling thread since it started; summed by the renderer for Mrays/s.
 uint64_t raysTracedByThisThread();
 
+// An Embree device that leaves the number of threads to oneTBB, i.e. to the caller's
+// tbb::global_control or task arena. Embree's "threads=N" setting is not local to its device:
+// Embree (built on oneTBB) applies it to the whole process as a tbb::global_control while the
+// device lives, so a "threads=1" device makes every render in the process single-threaded.
+RTCDevice newEmbreeDevice();
+
+// rtcCommitScene run by the calling thread alone, inside a task arena of one thread. Embree builds
+// in the caller's arena, and its parallel partitioning cuts the primitives into as many ranges as
+// the arena has threads: the order of primitives within leaves, hence which of two equally near
+// hits a ray reports, would depend on the core count. With one thread the BVH is a pure function
+// of the geometry on every machine.
+void commitEmbreeScene(RTCScene scene);
+
 }  // namespace alphorn

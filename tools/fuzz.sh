@@ -13,8 +13,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 TARGETS=(scene_parser obj_loader bundle_manifest film_codec checkpoint)
 # Runs per target in the smoke stage: each takes 15-30 s on one core of the CI machine.
-declare -A SMOKE_RUNS=([scene_parser]=4000 [obj_loader]=20000 [bundle_manifest]=30000
-                       [film_codec]=30000 [checkpoint]=30000)
+declare -A SMOKE_RUNS=([scene_parser]=8000 [obj_loader]=20000 [bundle_manifest]=300000
+                       [film_codec]=100000 [checkpoint]=30000)
 
 fuzz_target() {  # TARGET SEED WORK_CORPUS LIBFUZZER_OPTIONS...
   local target=$1 seed=$2 corpus=$3

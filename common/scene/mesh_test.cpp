@@ -124,5 +124,21 @@ TEST(WavefrontOBJ, FuzzCrashSkinWeightJointIdLoadsOrFailsClearly) {
     }
 }
 
+// fuzz/obj_loader found a mesh with a vertex at 3.3e31, where a ray leaving its surface made
+// Embree abort (its ray validity assertion); such meshes are refused when loaded.
+TEST(WavefrontOBJ, FuzzCrashVertexBeyondEmbreeRangeIsRefused) {
+    const std::string path = std::string(ALPHORN_SOURCE_DIR) +
+                             "/fuzz/corpus/obj_loader/crash_vertex_beyond_embree_range";
+    PropertyList props("test (mesh type=\"obj\")");
+    props.setString("filename", path);
+    try {
+        ObjectFactory::create(ObjectKind::Mesh, "obj", props);
+        FAIL() << "a vertex at 3.3e31 was accepted";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("farther out than 1e+15"), std::string::npos)
+            << e.what();
+    }
+}
+
 }  // namespace
 }  // namespace alphorn

@@ -33,6 +33,10 @@ std::string withoutSkinWeightLines(std::string text) {
     return text;
 }
 
+// Embree refuses (asserts on) rays whose origin has a coordinate beyond about 1.8e18, and rays
+// leave from surface points; this bound keeps every point on a mesh far inside that range.
+constexpr float kMaxVertexCoordinate = 1e15f;
+
 class WavefrontOBJ : public Mesh {
   public:
     explicit WavefrontOBJ(const PropertyList& props) {
@@ -97,6 +101,11 @@ class WavefrontOBJ : public Mesh {
             positions.col(i) = toWorld.applyPoint(position);
             if (!positions.col(i).allFinite())
                 props.fail("OBJ file \"%s\" has a non-finite vertex position", path);
+            if (positions.col(i).cwiseAbs().maxCoeff() > kMaxVertexCoordinate)
+                props.fail(
+                    "OBJ file \"%s\" has a vertex at (%g, %g, %g), farther out than %g (after "
+                    "toWorld), where rays cannot be traced",
+                    path, positions(0, i), positions(1, i), positions(2, i), kMaxVertexCoordinate);
             if (allNormals) {
                 Normal3f normal(attrib.normals[3 * nIdx], attrib.normals[3 * nIdx + 1],
                                 attrib.normals[3 * nIdx + 2]);

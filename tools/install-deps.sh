@@ -8,6 +8,7 @@ PACKAGES=(
   libopenexr-dev libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev
   libembree-dev libtbb-dev libpugixml-dev libtinyobjloader-dev libpng-dev
   libboost-dev libsqlite3-dev libzstd-dev libnanoflann-dev libpcg-cpp-dev libcli11-dev libssl-dev
+  clang-14 libclang-rt-14-dev
 )
 missing=()
 for p in "${PACKAGES[@]}"; do

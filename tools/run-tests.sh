@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Every test: installs what is missing, builds a release tree and an ASan+UBSan tree, and runs
-# all tests in the release tree and the unit tests in the sanitizer tree.
+# all tests in the release tree and the unit tests in the sanitizer tree; in between, a short
+# libFuzzer run of every input boundary (fixed seed and run counts, under 3 minutes).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 tools/install-deps.sh
@@ -11,6 +12,7 @@ export CCACHE_SLOPPINESS=${CCACHE_SLOPPINESS:-time_macros}
 tools/build.sh release
 echo "== all tests (release build)"
 ctest --test-dir build --output-on-failure -j "$(nproc)"
+tools/fuzz.sh --smoke
 tools/build.sh sanitize
 echo "== unit tests under AddressSanitizer + UndefinedBehaviorSanitizer"
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \

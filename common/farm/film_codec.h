@@ -8,9 +8,15 @@
 
 namespace alphorn::farm {
 
+// The largest magnitude a decoded sum may have: 2^60 in real units, which no render reaches
+// (it takes 2^14 samples at the fixed-point limit of 2^46 in one pixel), so that the coordinator
+// can add 2^27 accepted blocks into one pixel before a 128-bit sum could overflow. A worker or a
+// checkpoint file cannot make the coordinator's film overflow.
+inline constexpr FixedPoint kMaxDecodedSum = FixedPoint(1) << 100;
+
 std::string compressFilm(const FilmBlock& block);
 // Fills `block` (already of the right shape) from compressFilm's output; throws Error on
-// corrupt data or a shape mismatch.
+// corrupt data, a shape mismatch or a sum beyond kMaxDecodedSum.
 void decompressFilm(const std::string& compressed, FilmBlock& block);
 
 std::string zstdCompress(std::string_view bytes, int level = 1);

@@ -102,4 +102,8 @@ class Mesh : public Object {
     bool m_hasMediumInterface = false;
 };
 
+// The OBJ loader's text filter: empties tinyobjloader's "vw" (skin weight) lines, which Alphorn
+// ignores and tinyobjloader parses unsafely (obj_mesh.cpp).
+std::string withoutSkinWeightLines(std::string text);
+
 }  // namespace alphorn

@@ -101,5 +101,44 @@ TEST(MeshTangents, NormalMapGreenLeansTowardsPlusV) {
     EXPECT_GT(towardsV, 1.5f * awayFromV);
 }
 
+// tinyobjloader's "vw" lines are emptied (line breaks kept, for its line numbers); other lines,
+// including ones that merely start with "vw", are untouched.
+TEST(WavefrontOBJ, SkinWeightLinesAreEmptied) {
+    EXPECT_EQ(withoutSkinWeightLines("v 0 0 0\n  vw 0 1e20 1\r\nvw\t1 2\rvwx 1\n   \nvw 3"),
+              "v 0 0 0\n\r\n\rvwx 1\n   \n");
+    EXPECT_EQ(withoutSkinWeightLines("vw"), "vw");
+    EXPECT_EQ(withoutSkinWeightLines(""), "");
+}
+
+// fuzz/obj_loader found a "vw" line whose joint id (1e20) tinyobjloader converted to int
+// (undefined behaviour); the file now loads to a clear error or a mesh.
+TEST(WavefrontOBJ, FuzzCrashSkinWeightJointIdLoadsOrFailsClearly) {
+    const std::string path =
+        std::string(ALPHORN_SOURCE_DIR) + "/fuzz/corpus/obj_loader/crash_vw_huge_joint_id";
+    PropertyList props("test (mesh type=\"obj\")");
+    props.setString("filename", path);
+    try {
+        ObjectFactory::create(ObjectKind::Mesh, "obj", props);
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    }
+}
+
+// fuzz/obj_loader found a mesh with a vertex at 3.3e31, where a ray leaving its surface made
+// Embree abort (its ray validity assertion); such meshes are refused when loaded.
+TEST(WavefrontOBJ, FuzzCrashVertexBeyondEmbreeRangeIsRefused) {
+    const std::string path = std::string(ALPHORN_SOURCE_DIR) +
+                             "/fuzz/corpus/obj_loader/crash_vertex_beyond_embree_range";
+    PropertyList props("test (mesh type=\"obj\")");
+    props.setString("filename", path);
+    try {
+        ObjectFactory::create(ObjectKind::Mesh, "obj", props);
+        FAIL() << "a vertex at 3.3e31 was accepted";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("farther out than 1e+15"), std::string::npos)
+            << e.what();
+    }
+}
+
 }  // namespace
 }  // namespace alphorn

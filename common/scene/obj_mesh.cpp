@@ -8,9 +8,34 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <tuple>
 
 namespace alphorn {
+
+// tinyobjloader's "vw" extension (skin weights) converts joint ids from float to int unchecked,
+// which is undefined behaviour for ids beyond the int range. Alphorn has no use for skin
+// weights, so those lines are emptied before parsing (their line breaks stay, so tinyobjloader's
+// line numbers still match the file). Lines end at \n, \r or \r\n, as tinyobjloader reads them.
+std::string withoutSkinWeightLines(std::string text) {
+    size_t lineStart = 0;
+    while (lineStart < text.size()) {
+        size_t lineEnd = text.find_first_of("\r\n", lineStart);
+        if (lineEnd == std::string::npos) lineEnd = text.size();
+        const size_t token = text.find_first_not_of(" \t", lineStart);
+        if (token < lineEnd && lineEnd - token > 2 && text[token] == 'v' &&
+            text[token + 1] == 'w' && (text[token + 2] == ' ' || text[token + 2] == '\t')) {
+            text.erase(lineStart, lineEnd - lineStart);
+            lineEnd = lineStart;
+        }
+        lineStart = lineEnd + 1;
+    }
+    return text;
+}
+
+// Embree refuses (asserts on) rays whose origin has a coordinate beyond about 1.8e18, and rays
+// leave from surface points; this bound keeps every point on a mesh far inside that range.
+constexpr float kMaxVertexCoordinate = 1e15f;
 
 class WavefrontOBJ : public Mesh {
   public:
@@ -24,15 +49,18 @@ class WavefrontOBJ : public Mesh {
 
   private:
     void load(const PropertyList& props, const std::string& path, const Transform& toWorld) {
-        std::ifstream file(path);
+        std::ifstream file(path, std::ios::binary);
         if (!file) props.fail("cannot open OBJ file \"%s\": %s", path, std::strerror(errno));
+        std::stringstream contents;
+        contents << file.rdbuf();
+        std::istringstream stream(withoutSkinWeightLines(std::move(contents).str()));
 
         tinyobj::attrib_t attrib;
         std::vector<tinyobj::shape_t> shapes;
         std::vector<tinyobj::material_t> materials;
         std::string warn, err;
         // Materials are ignored (BSDFs come from the scene file), so no material reader.
-        bool ok = tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, &file, nullptr,
+        bool ok = tinyobj::LoadObj(&attrib, &shapes, &materials, &warn, &err, &stream, nullptr,
                                    /*triangulate=*/true);
         if (!ok || !err.empty()) props.fail("cannot parse OBJ file \"%s\": %s", path, err);
 
@@ -73,6 +101,11 @@ class WavefrontOBJ : public Mesh {
             positions.col(i) = toWorld.applyPoint(position);
             if (!positions.col(i).allFinite())
                 props.fail("OBJ file \"%s\" has a non-finite vertex position", path);
+            if (positions.col(i).cwiseAbs().maxCoeff() > kMaxVertexCoordinate)
+                props.fail(
+                    "OBJ file \"%s\" has a vertex at (%g, %g, %g), farther out than %g (after "
+                    "toWorld), where rays cannot be traced",
+                    path, positions(0, i), positions(1, i), positions(2, i), kMaxVertexCoordinate);
             if (allNormals) {
                 Normal3f normal(attrib.normals[3 * nIdx], attrib.normals[3 * nIdx + 1],
                                 attrib.normals[3 * nIdx + 2]);

@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# Fuzzes Alphorn's input boundaries with libFuzzer (harnesses in fuzz/, one per target).
+#   tools/fuzz.sh TARGET SECONDS [SEED]   a session on one target, under nice; TARGET is one of
+#                                         scene_parser obj_loader bundle_manifest film_codec checkpoint
+#   tools/fuzz.sh --smoke                 every target for a fixed number of runs from a fixed
+#                                         seed (ALPHORN_FUZZ_SEED, default 1): the CI stage
+# Both build the fuzz tree first (tools/build.sh fuzz, clang + ASan + UBSan). A session starts
+# from the committed seeds (fuzz/corpus/TARGET) plus what earlier sessions on this machine found
+# (build-fuzz/corpus/TARGET, which grows); the smoke run starts from the seeds alone, so the same
+# seed replays the same inputs. A crash stops the run with a non-zero status and leaves the input
+# in build-fuzz/artifacts/TARGET/; replay it with build-fuzz/fuzz/fuzz_TARGET FILE.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+TARGETS=(scene_parser obj_loader bundle_manifest film_codec checkpoint)
+# Runs per target in the smoke stage: each takes 15-30 s on one core of the CI machine.
+declare -A SMOKE_RUNS=([scene_parser]=8000 [obj_loader]=20000 [bundle_manifest]=300000
+                       [film_codec]=100000 [checkpoint]=30000)
+
+fuzz_target() {  # TARGET SEED WORK_CORPUS LIBFUZZER_OPTIONS...
+  local target=$1 seed=$2 corpus=$3
+  shift 3
+  local options=(-seed="$seed" -timeout=30 -rss_limit_mb=2048 -print_final_stats=1
+                 -artifact_prefix="build-fuzz/artifacts/$target/")
+  [ -f "fuzz/$target.dict" ] && options+=(-dict="fuzz/$target.dict")
+  mkdir -p "build-fuzz/artifacts/$target" "$corpus"
+  echo "== fuzz $target: seed $seed, $*"
+  nice "build-fuzz/fuzz/fuzz_$target" "${options[@]}" "$@" "$corpus" "fuzz/corpus/$target"
+}
+
+export CCACHE_DIR=${CCACHE_DIR:-$HOME/.cache/alphorn-ccache}
+export CCACHE_SLOPPINESS=${CCACHE_SLOPPINESS:-time_macros}
+# Findings are failures; leaks are not looked for (Embree and oneTBB keep per-process pools).
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}
+
+if [ "${1:-}" = "--smoke" ]; then
+  seed=${ALPHORN_FUZZ_SEED:-1}
+  tools/build.sh fuzz
+  echo "== fuzz smoke: seed $seed (replay with ALPHORN_FUZZ_SEED=$seed tools/fuzz.sh --smoke)"
+  for target in "${TARGETS[@]}"; do
+    work=$(mktemp -d)
+    fuzz_target "$target" "$seed" "$work" -runs="${SMOKE_RUNS[$target]}" 2>"$work.log" || {
+      tail -n 60 "$work.log"
+      echo "fuzz $target failed (seed $seed); the input is in build-fuzz/artifacts/$target/" >&2
+      rm -rf "$work" "$work.log"
+      exit 1
+    }
+    grep -E "^(stat::number_of_executed_units|stat::peak_rss_mb|Done )" "$work.log" || true
+    rm -rf "$work" "$work.log"
+  done
+  exit 0
+fi
+
+if [ $# -lt 2 ] || [[ ! " ${TARGETS[*]} " =~ " $1 " ]]; then
+  echo "usage: tools/fuzz.sh TARGET SECONDS [SEED] | --smoke   (TARGET: ${TARGETS[*]})" >&2
+  exit 2
+fi
+target=$1 seconds=$2 seed=${3:-$(date +%s)}
+tools/build.sh fuzz
+fuzz_target "$target" "$seed" "build-fuzz/corpus/$target" -max_total_time="$seconds"

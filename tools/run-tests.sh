@@ -9,6 +9,9 @@ export CCACHE_DIR=${CCACHE_DIR:-$HOME/.cache/alphorn-ccache}
 # pcg_extras.hpp uses __TIME__ in code Alphorn never calls; without this ccache never reuses the
 # objects that include it (and the docker test's image build reuses this cache).
 export CCACHE_SLOPPINESS=${CCACHE_SLOPPINESS:-time_macros}
+# Paths relative to the checkout (and no working directory in the hash), so every clone, CI's
+# included, reuses the same cache entries.
+export CCACHE_BASEDIR=${CCACHE_BASEDIR:-$PWD} CCACHE_NOHASHDIR=${CCACHE_NOHASHDIR:-1}
 tools/build.sh release
 echo "== all tests (release build)"
 ctest --test-dir build --output-on-failure -j "$(nproc)"

@@ -261,9 +261,7 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
         line.hits.clear();
         if (!line.spans.empty() && !data.volume.empty())
             data.volume.crossedBy(line.origin, line.direction, 0.0f, line.end, line.hits);
-        std::sort(line.hits.begin(), line.hits.end(), [](const SphereHit& a, const SphereHit& b) {
-            return a.t < b.t || (a.t == b.t && a.index < b.index);
-        });
+        // crossedBy() returns the photons by increasing t, ties by index.
         const float cameraSide = wall ? (line.origin - wall->p).dot(wall->geoFrame.n) : 0.0f;
         const std::vector<Photon>& photons = data.volume.photons();
         Color3f beam(0.0f), emitted(0.0f);

@@ -5,6 +5,11 @@
 //
 // Content is a deterministic function of the photon array and r_max: the buckets are computed
 // in parallel, but the counting sort places photons of a bucket in photon-index order.
+//
+// The grid keeps its own copy of each photon in entry order, so that a gather reads the photons
+// it visits from a few contiguous runs: looking them up by index in the map's array cost a cache
+// miss per photon, which dominated large gathers (bench/RESULTS.md, "The stage at the report's
+// settings").
 #pragma once
 
 #include "common/photon/photon.h"
@@ -30,6 +35,21 @@ class PhotonHashGrid {
     // bucket by bucket, in photon-index order within a bucket.
     template <typename F>
     void forEachWithin(const Point3f& x, float radius, F&& f) const {
+        forEachEntryWithin(x, radius, [&](uint32_t e, float d2) { f(m_order[e], d2); });
+    }
+
+    // The same visit in the same order, calling f(photon, distance²) with the grid's copy of the
+    // photon (equal to photons[index]).
+    template <typename F>
+    void forEachPhotonWithin(const Point3f& x, float radius, F&& f) const {
+        forEachEntryWithin(x, radius, [&](uint32_t e, float d2) { f(m_photons[e], d2); });
+    }
+
+  private:
+    // Calls f(entry, distance²) for the entries within radius of x, in the order documented at
+    // forEachWithin().
+    template <typename F>
+    void forEachEntryWithin(const Point3f& x, float radius, F&& f) const {
         if (m_order.empty()) return;
         // A larger sphere could reach a third cell per axis, which the scan below would miss.
         if (radius > m_maxRadius) radiusTooLarge(radius);
@@ -59,19 +79,18 @@ class PhotonHashGrid {
         for (size_t s = 0; s < bucketCount; ++s) {
             const uint32_t b = buckets[s];
             for (uint32_t e = m_bucketStart[b]; e < m_bucketStart[b + 1]; ++e) {
-                const Point3f& p = m_positions[e];
+                const Point3f& p = m_photons[e].position;
                 // The same arithmetic as nanoflann's L2 metric, term by term.
                 float d2 = 0.0f;
                 for (int a = 0; a < 3; ++a) {
                     const float diff = x[a] - p[a];
                     d2 += diff * diff;
                 }
-                if (d2 < radius2) f(m_order[e], d2);
+                if (d2 < radius2) f(e, d2);
             }
         }
     }
 
-  private:
     // A coordinate along axis a in cell units from the grid's origin.
     double cellUnits(float x, int a) const { return (double(x) - m_origin[a]) * m_invCellSize; }
     static int cellCoordinate(double u) {
@@ -92,7 +111,7 @@ class PhotonHashGrid {
     uint32_t m_bucketMask = 0;
     std::vector<uint32_t> m_bucketStart;  // bucket b holds entries [start[b], start[b + 1])
     std::vector<uint32_t> m_order;        // photon index of each entry
-    std::vector<Point3f> m_positions;     // photon position of each entry (locality)
+    std::vector<Photon> m_photons;        // the photon of each entry (locality)
 };
 
 }  // namespace alphorn

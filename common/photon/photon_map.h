@@ -39,11 +39,12 @@ class PhotonMap {
     // Calls f(photon, distance²) for every photon with distance² < radius².
     template <typename F>
     void forEachWithin(const Point3f& x, float radius, F&& f) const {
-        auto visit = [&](uint32_t index, float distance2) { f(m_photons[index], distance2); };
-        if (m_lookup == Lookup::Radius)
-            m_grid.forEachWithin(x, radius, visit);
-        else
-            m_tree.forEachWithin(x, radius, visit);
+        if (m_lookup == Lookup::Radius) {
+            m_grid.forEachPhotonWithin(x, radius, f);
+            return;
+        }
+        m_tree.forEachWithin(
+            x, radius, [&](uint32_t index, float distance2) { f(m_photons[index], distance2); });
     }
 
     // The up to k photons nearest to x with distance² < maxRadius², closest first (Nearest

@@ -4,15 +4,33 @@
 #include "common/scene/accel.h"
 
 #include <algorithm>
+#include <bit>
+#include <cstddef>
 
 namespace alphorn {
 
-namespace {
-
-void sortByIndex(std::vector<SphereHit>& hits, size_t from) {
-    std::sort(hits.begin() + static_cast<std::ptrdiff_t>(from), hits.end(),
-              [](const SphereHit& a, const SphereHit& b) { return a.index < b.index; });
+void sortByDistance(std::vector<SphereHit>& hits, size_t from) {
+    const auto begin = hits.begin() + static_cast<std::ptrdiff_t>(from);
+    // For t >= +0 the bits of (t, index) read as one little-endian 64-bit integer, t's bits high,
+    // order exactly as (t, index): sorting those integers is about twice as fast as the
+    // comparator below. Negative t (a segment starting before its origin) and -0 (equal to +0
+    // but with the sign bit) take the comparator.
+    static_assert(sizeof(SphereHit) == sizeof(uint64_t) && offsetof(SphereHit, t) == 4);
+    static_assert(std::endian::native == std::endian::little);
+    const bool signless =
+        std::none_of(begin, hits.end(), [](const SphereHit& h) { return std::signbit(h.t); });
+    if (signless) {
+        std::sort(begin, hits.end(), [](const SphereHit& a, const SphereHit& b) {
+            return std::bit_cast<uint64_t>(a) < std::bit_cast<uint64_t>(b);
+        });
+        return;
+    }
+    std::sort(begin, hits.end(), [](const SphereHit& a, const SphereHit& b) {
+        return a.t < b.t || (a.t == b.t && a.index < b.index);
+    });
 }
+
+namespace {
 
 // Does the segment o + t d, t in [tMin, tMax], meet the box? (Slab test; NaN from 0 * inf on a
 // slab face compares false and leaves the interval unchanged.)
@@ -49,6 +67,11 @@ SphereBvh::SphereBvh(std::vector<Point3f> centres, std::vector<float> radii, uin
     }
     m_nodes.reserve(2 * (count / m_leafSize + 1));
     build(0, count, boxes);
+    m_leaf.resize(count);
+    for (uint32_t k = 0; k < count; ++k) {
+        const uint32_t i = m_order[k];
+        m_leaf[k] = LeafSphere{m_centres[i], radius2(i), i};
+    }
 }
 
 // Depth first, so the first child of an inner node is the next node. Splits at the median
@@ -96,11 +119,11 @@ void SphereBvh::query(const Point3f& origin, const Vector3f& direction, float tM
         if (!segmentMeetsBox(node.bounds, origin, inverse, tMin, tMax)) continue;
         if (node.count > 0) {
             for (uint32_t k = node.first; k < node.first + node.count; ++k) {
-                const uint32_t i = m_order[k];
+                const LeafSphere& sphere = m_leaf[k];
                 float t;
-                if (segmentCrossesSphere(origin, direction, tMin, tMax, m_centres[i], radius2(i),
-                                         t))
-                    hits.push_back(SphereHit{i, t});
+                if (segmentCrossesSphere(origin, direction, tMin, tMax, sphere.centre,
+                                         sphere.radius2, t))
+                    hits.push_back(SphereHit{sphere.index, t});
             }
             continue;
         }
@@ -109,12 +132,13 @@ void SphereBvh::query(const Point3f& origin, const Vector3f& direction, float tM
         stack[top++] = node.first;
         stack[top++] = self + 1;
     }
-    sortByIndex(hits, from);
+    sortByDistance(hits, from);
 }
 
 void bruteForceSphereQuery(const std::vector<Point3f>& centres, const std::vector<float>& radii,
                            const Point3f& origin, const Vector3f& direction, float tMin, float tMax,
                            std::vector<SphereHit>& hits) {
+    const size_t from = hits.size();
     for (size_t i = 0; i < centres.size(); ++i) {
         const float r = radii.size() == 1 ? radii[0] : radii[i];
         float t;
@@ -122,6 +146,7 @@ void bruteForceSphereQuery(const std::vector<Point3f>& centres, const std::vecto
                                  t))
             hits.push_back(SphereHit{static_cast<uint32_t>(i), t});
     }
+    sortByDistance(hits, from);
 }
 
 // ---- Embree ----------------------------------------------------------------------------------
@@ -219,7 +244,7 @@ void EmbreeSphereIndex::query(const Point3f& origin, const Vector3f& direction, 
     rayhit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rtcIntersect1(m_scene, &query.context, &rayhit);
     // Embree's traversal order is its own: sort, so the answer is the BVH's to the byte.
-    sortByIndex(hits, from);
+    sortByDistance(hits, from);
 }
 
 }  // namespace alphorn

@@ -13,9 +13,12 @@
 // and Embree's BVH over user-geometry spheres (EmbreeSphereIndex). bench/beam_estimate.cpp
 // measures both; the BVH was faster there (bench/RESULTS.md), so Embree stays for comparison.
 //
-// Determinism: the BVH is built by one thread with a fixed median split, and queries return the
-// crossed spheres' indices sorted ascending, so the hits and any sum over them in that order are
-// pure functions of the sphere array, whatever the traversal order.
+// Order: both indexes return the crossed spheres sorted by (t, index), the order in which the
+// beam estimate walks them along the ray (one transmittance walk serves them all). This is a
+// total order of the answer set, so the hits and any sum over them in that order are pure
+// functions of the sphere array, whatever the traversal order or the tree.
+//
+// Determinism: the BVH is built by one thread with a fixed median split.
 #pragma once
 
 #include "common/core/common.h"
@@ -27,15 +30,21 @@
 namespace alphorn {
 
 // A sphere crossed by a segment: its index and the ray parameter of its closest point.
+// (Layout: index first, then t; sortByDistance() relies on it.)
 struct SphereHit {
     uint32_t index;
     float t;
 };
 
+// Sorts hits[from, end) by (t, index).
+void sortByDistance(std::vector<SphereHit>& hits, size_t from = 0);
+
 // True when sphere (centre, radius²) is crossed by the segment; sets t to t_i. The one test both
 // indexes and the brute-force reference use, so their answers agree to the last bit.
-inline bool segmentCrossesSphere(const Point3f& origin, const Vector3f& direction, float tMin,
-                                 float tMax, const Point3f& centre, float radius2, float& t) {
+[[gnu::always_inline]] inline bool segmentCrossesSphere(const Point3f& origin,
+                                                        const Vector3f& direction, float tMin,
+                                                        float tMax, const Point3f& centre,
+                                                        float radius2, float& t) {
     const Vector3f toCentre = centre - origin;
     t = toCentre.dot(direction);
     if (!(t >= tMin && t <= tMax)) return false;
@@ -52,7 +61,7 @@ class SphereBvh {
 
     size_t size() const { return m_centres.size(); }
 
-    // Appends to `hits` every sphere the segment crosses, sorted by index.
+    // Appends to `hits` every sphere the segment crosses, sorted by (t, index).
     void query(const Point3f& origin, const Vector3f& direction, float tMin, float tMax,
                std::vector<SphereHit>& hits) const;
 
@@ -70,9 +79,18 @@ class SphereBvh {
         return r > 0.0f ? r * r : 0.0f;
     }
 
+    // A sphere as a leaf stores it: leaves scan contiguous runs of these, not the input arrays
+    // by index (a cache miss per sphere).
+    struct LeafSphere {
+        Point3f centre;
+        float radius2;
+        uint32_t index;
+    };
+
     std::vector<Point3f> m_centres;
     std::vector<float> m_radii;
-    std::vector<uint32_t> m_order;  // sphere indices, leaves' ranges point into it
+    std::vector<uint32_t> m_order;   // sphere indices, leaves' ranges point into it
+    std::vector<LeafSphere> m_leaf;  // m_order's spheres, in its order
     std::vector<Node> m_nodes;
     uint32_t m_leafSize = 8;
 };
@@ -102,7 +120,8 @@ class EmbreeSphereIndex {
     RTCScene m_scene = nullptr;
 };
 
-// Reference answer by testing every sphere (tests and the benchmark's check), sorted by index.
+// Reference answer by testing every sphere (tests and the benchmark's check), sorted by
+// (t, index).
 void bruteForceSphereQuery(const std::vector<Point3f>& centres, const std::vector<float>& radii,
                            const Point3f& origin, const Vector3f& direction, float tMin, float tMax,
                            std::vector<SphereHit>& hits);

@@ -37,7 +37,7 @@ class VolumePhotonMap {
     const Medium* medium(uint32_t i) const { return m_media.empty() ? nullptr : m_media[i]; }
 
     // Appends the photons whose spheres the segment o + t d, t in [tMin, tMax] (d unit length)
-    // crosses, sorted by photon index, each with the parameter t of its closest point.
+    // crosses, each with the parameter t of its closest point, sorted by (t, photon index).
     void crossedBy(const Point3f& origin, const Vector3f& direction, float tMin, float tMax,
                    std::vector<SphereHit>& hits) const {
         m_index.query(origin, direction, tMin, tMax, hits);

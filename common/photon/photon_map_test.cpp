@@ -72,6 +72,41 @@ TEST(PhotonMap, GridAndKdTreeFindExactlyThePhotonsWithinTheRadius) {
     }
 }
 
+TEST(PhotonMap, GridVisitsItsPhotonCopiesInTheOrderOfItsIndices) {
+    // Gathers read the grid's own copies of the photons (locality); they must be the photons of
+    // the array, visited in exactly the order forEachWithin() gives their indices, or a density
+    // estimate's sum would change.
+    std::vector<Photon> photons = randomPhotons(5000, 4);
+    for (size_t i = 0; i < photons.size(); ++i)
+        photons[i].direction = Vector3f(float(i), 1.0f, 0.0f).normalized();
+    const float radius = 0.1f;
+    PhotonHashGrid grid(photons.data(), photons.size(), radius);
+    size_t total = 0;
+    for (uint64_t q = 0; q < 100; ++q) {
+        const Point3f x = photons[(q * 7919) % photons.size()].position;
+        std::vector<uint32_t> indices;
+        std::vector<float> byIndex, byCopy;
+        grid.forEachWithin(x, radius, [&](uint32_t i, float d2) {
+            indices.push_back(i);
+            byIndex.push_back(d2);
+        });
+        size_t n = 0;
+        grid.forEachPhotonWithin(x, radius, [&](const Photon& photon, float d2) {
+            ASSERT_LT(n, indices.size());
+            const Photon& original = photons[indices[n]];
+            EXPECT_EQ(photon.position, original.position);
+            EXPECT_EQ(photon.direction, original.direction);
+            EXPECT_TRUE((photon.power == original.power).all());
+            byCopy.push_back(d2);
+            ++n;
+        });
+        EXPECT_EQ(n, indices.size());
+        EXPECT_EQ(byIndex, byCopy);
+        total += n;
+    }
+    EXPECT_GT(total, 500u);
+}
+
 TEST(PhotonMap, GridHandlesPhotonsOnCellFacesAndDuplicates) {
     // Photons on a lattice whose spacing equals the grid's cell size, and exact duplicates:
     // points on cell faces must be found from both sides, and duplicates all counted.

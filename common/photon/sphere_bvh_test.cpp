@@ -1,6 +1,6 @@
 // The beam radiance estimate's query: both indexes (our BVH and Embree's) must return exactly the
-// spheres that brute force finds -- same indices, same order, same t -- for fixed and per-sphere
-// radii, with the segment clipped at both ends.
+// spheres that brute force finds -- same indices, same order (by t, then index), same t -- for
+// fixed and per-sphere radii, with the segment clipped at both ends.
 #include "common/photon/sphere_bvh.h"
 
 #include "common/core/rng.h"
@@ -92,6 +92,37 @@ TEST(SphereBvhTest, ClipsAtTheClosestPointNotAtTheSphere) {
         EXPECT_FLOAT_EQ(hits[0].t, 0.5f);
         EXPECT_EQ(hits[1].index, 3u);  // 0.49 off the axis: inside; 0.51: outside
         EXPECT_FLOAT_EQ(hits[1].t, 0.6f);
+    }
+}
+
+TEST(SphereBvhTest, HitsAreSortedByDistanceThenIndex) {
+    // The beam estimate walks the hits in this order; the fast path sorts (t, index) as 64-bit
+    // integers, the general one (negative t, -0) by comparison: both must agree with a plain
+    // sort, ties in t included.
+    Rng rng(11, 0, 0, StreamPurpose::Test);
+    for (int round = 0; round < 200; ++round) {
+        std::vector<SphereHit> hits;
+        const int count = 1 + round % 50;
+        for (int i = 0; i < count; ++i) {
+            float t = float(int(rng.nextFloat() * 8.0f)) * 0.25f;  // many ties
+            if (round % 3 == 1) t -= 1.0f;                         // negative t
+            if (round % 3 == 2 && i % 4 == 0) t = -0.0f;           // -0 among +0
+            hits.push_back(SphereHit{static_cast<uint32_t>(rng.nextFloat() * 1000.0f), t});
+        }
+        std::vector<SphereHit> expected = hits;
+        std::stable_sort(expected.begin(), expected.end(),
+                         [](const SphereHit& a, const SphereHit& b) {
+                             return a.t < b.t || (a.t == b.t && a.index < b.index);
+                         });
+        // Hits before `from` stay where they are.
+        hits.insert(hits.begin(), SphereHit{7u, 5.0f});
+        sortByDistance(hits, 1);
+        ASSERT_EQ(hits.size(), expected.size() + 1);
+        EXPECT_EQ(hits[0].index, 7u);
+        for (size_t i = 0; i < expected.size(); ++i) {
+            EXPECT_EQ(hits[i + 1].index, expected[i].index) << "round " << round;
+            EXPECT_EQ(hits[i + 1].t, expected[i].t) << "round " << round;
+        }
     }
 }
 

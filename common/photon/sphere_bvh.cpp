@@ -7,6 +7,8 @@
 #include <bit>
 #include <cstddef>
 
+#include <immintrin.h>
+
 namespace alphorn {
 
 void sortByDistance(std::vector<SphereHit>& hits, size_t from) {
@@ -30,25 +32,6 @@ void sortByDistance(std::vector<SphereHit>& hits, size_t from) {
     });
 }
 
-namespace {
-
-// Does the segment o + t d, t in [tMin, tMax], meet the box? (Slab test; NaN from 0 * inf on a
-// slab face compares false and leaves the interval unchanged.)
-bool segmentMeetsBox(const Eigen::AlignedBox3f& box, const Point3f& origin,
-                     const Vector3f& inverseDirection, float tMin, float tMax) {
-    for (int axis = 0; axis < 3; ++axis) {
-        float t0 = (box.min()[axis] - origin[axis]) * inverseDirection[axis];
-        float t1 = (box.max()[axis] - origin[axis]) * inverseDirection[axis];
-        if (t0 > t1) std::swap(t0, t1);
-        if (t0 > tMin) tMin = t0;
-        if (t1 < tMax) tMax = t1;
-        if (tMin > tMax) return false;
-    }
-    return true;
-}
-
-}  // namespace
-
 SphereBvh::SphereBvh(std::vector<Point3f> centres, std::vector<float> radii, uint32_t leafSize)
     : m_centres(std::move(centres)), m_radii(std::move(radii)), m_leafSize(std::max(leafSize, 1u)) {
     if (m_radii.size() != 1 && m_radii.size() != m_centres.size())
@@ -65,30 +48,34 @@ SphereBvh::SphereBvh(std::vector<Point3f> centres, std::vector<float> radii, uin
         boxes[i] = Eigen::AlignedBox3f(m_centres[i] - Vector3f::Constant(r),
                                        m_centres[i] + Vector3f::Constant(r));
     }
-    m_nodes.reserve(2 * (count / m_leafSize + 1));
-    build(0, count, boxes);
+    std::vector<Node> nodes;
+    nodes.reserve(2 * (count / m_leafSize + 1));
+    build(0, count, boxes, nodes);
     m_leaf.resize(count);
     for (uint32_t k = 0; k < count; ++k) {
         const uint32_t i = m_order[k];
         m_leaf[k] = LeafSphere{m_centres[i], radius2(i), i};
     }
+    m_wide.reserve(nodes.size() / 2 + 1);
+    collapse(nodes, 0);
 }
 
 // Depth first, so the first child of an inner node is the next node. Splits at the median
 // centre along the longest axis of the centres' box: nth_element is deterministic for equal
 // input, and ties are broken by sphere index, so the tree is a pure function of the spheres.
-uint32_t SphereBvh::build(uint32_t begin, uint32_t end, std::vector<Eigen::AlignedBox3f>& boxes) {
-    const auto nodeIndex = static_cast<uint32_t>(m_nodes.size());
-    m_nodes.emplace_back();
+uint32_t SphereBvh::build(uint32_t begin, uint32_t end, std::vector<Eigen::AlignedBox3f>& boxes,
+                          std::vector<Node>& nodes) {
+    const auto nodeIndex = static_cast<uint32_t>(nodes.size());
+    nodes.emplace_back();
     Eigen::AlignedBox3f bounds, centreBounds;
     for (uint32_t i = begin; i < end; ++i) {
         bounds.extend(boxes[m_order[i]]);
         centreBounds.extend(m_centres[m_order[i]]);
     }
-    m_nodes[nodeIndex].bounds = bounds;
+    nodes[nodeIndex].bounds = bounds;
     if (end - begin <= m_leafSize) {
-        m_nodes[nodeIndex].first = begin;
-        m_nodes[nodeIndex].count = end - begin;
+        nodes[nodeIndex].first = begin;
+        nodes[nodeIndex].count = end - begin;
         return nodeIndex;
     }
     int axis = 0;
@@ -99,38 +86,99 @@ uint32_t SphereBvh::build(uint32_t begin, uint32_t end, std::vector<Eigen::Align
                          const float ca = m_centres[a][axis], cb = m_centres[b][axis];
                          return ca < cb || (ca == cb && a < b);
                      });
-    build(begin, middle, boxes);
-    const uint32_t second = build(middle, end, boxes);
-    m_nodes[nodeIndex].first = second;
-    m_nodes[nodeIndex].count = 0;
+    build(begin, middle, boxes, nodes);
+    const uint32_t second = build(middle, end, boxes, nodes);
+    nodes[nodeIndex].first = second;
+    nodes[nodeIndex].count = 0;
     return nodeIndex;
+}
+
+// The wide node for binary node `node` (and, recursively, its subtree); returns its index. A
+// leaf root becomes a wide node with one leaf child.
+uint32_t SphereBvh::collapse(const std::vector<Node>& nodes, uint32_t node) {
+    uint32_t children[4];
+    uint32_t count = 0;
+    auto pushChildren = [&](uint32_t n) {
+        children[count++] = n + 1;
+        children[count++] = nodes[n].first;
+    };
+    if (nodes[node].count > 0) {
+        children[count++] = node;
+    } else {
+        uint32_t pair[2] = {node + 1, nodes[node].first};
+        for (uint32_t n : pair) {
+            if (nodes[n].count > 0)
+                children[count++] = n;
+            else
+                pushChildren(n);
+        }
+    }
+    const auto wide = static_cast<uint32_t>(m_wide.size());
+    m_wide.emplace_back();
+    WideNode w{};
+    w.children = count;
+    for (uint32_t c = 0; c < 4; ++c) {
+        // Unused lanes repeat the first child; the query masks them out.
+        const Node& child = nodes[children[c < count ? c : 0]];
+        for (int a = 0; a < 3; ++a) {
+            w.lower[a][c] = child.bounds.min()[a];
+            w.upper[a][c] = child.bounds.max()[a];
+        }
+    }
+    for (uint32_t c = 0; c < count; ++c) {
+        const Node& child = nodes[children[c]];
+        w.count[c] = child.count;
+        w.first[c] = child.count > 0 ? child.first : collapse(nodes, children[c]);
+    }
+    m_wide[wide] = w;
+    return wide;
 }
 
 void SphereBvh::query(const Point3f& origin, const Vector3f& direction, float tMin, float tMax,
                       std::vector<SphereHit>& hits) const {
-    if (m_nodes.empty() || !(tMin <= tMax)) return;
+    if (m_wide.empty() || !(tMin <= tMax)) return;
     const size_t from = hits.size();
-    const Vector3f inverse = direction.cwiseInverse();
-    uint32_t stack[64];
+    // Slab tests of four boxes at once. A zero direction component becomes a tiny one of the
+    // same sign, so that no 0 * inf NaN reaches the min/max below: the segment then lies in a
+    // slab's plane or crosses it, and its box test is only ever more permissive (the sphere test
+    // decides). For every other direction the arithmetic is the scalar slab test's.
+    __m128 o[3], inverse[3];
+    for (int a = 0; a < 3; ++a) {
+        float d = direction[a];
+        if (d == 0.0f) d = std::copysign(1e-30f, d);
+        o[a] = _mm_set1_ps(origin[a]);
+        inverse[a] = _mm_set1_ps(1.0f / d);
+    }
+    const __m128 segmentNear = _mm_set1_ps(tMin), segmentFar = _mm_set1_ps(tMax);
+    // Three pushes per level of a tree at most 32 wide levels deep (median splits halve the
+    // spheres at every binary level, and 2^64 exceeds any array).
+    uint32_t stack[128];
     int top = 0;
     stack[top++] = 0;
     while (top > 0) {
-        const Node& node = m_nodes[stack[--top]];
-        if (!segmentMeetsBox(node.bounds, origin, inverse, tMin, tMax)) continue;
-        if (node.count > 0) {
-            for (uint32_t k = node.first; k < node.first + node.count; ++k) {
+        const WideNode& node = m_wide[stack[--top]];
+        __m128 nearT = segmentNear, farT = segmentFar;
+        for (int a = 0; a < 3; ++a) {
+            const __m128 t0 = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(node.lower[a]), o[a]), inverse[a]);
+            const __m128 t1 = _mm_mul_ps(_mm_sub_ps(_mm_loadu_ps(node.upper[a]), o[a]), inverse[a]);
+            nearT = _mm_max_ps(nearT, _mm_min_ps(t0, t1));
+            farT = _mm_min_ps(farT, _mm_max_ps(t0, t1));
+        }
+        const int mask = _mm_movemask_ps(_mm_cmple_ps(nearT, farT)) & ((1 << node.children) - 1);
+        for (uint32_t c = 0; c < node.children; ++c) {
+            if (!(mask & (1 << c))) continue;
+            if (node.count[c] == 0) {
+                stack[top++] = node.first[c];
+                continue;
+            }
+            for (uint32_t k = node.first[c]; k < node.first[c] + node.count[c]; ++k) {
                 const LeafSphere& sphere = m_leaf[k];
                 float t;
                 if (segmentCrossesSphere(origin, direction, tMin, tMax, sphere.centre,
                                          sphere.radius2, t))
                     hits.push_back(SphereHit{sphere.index, t});
             }
-            continue;
         }
-        // A median split halves the spheres at every level: 64 levels cover any array.
-        const auto self = static_cast<uint32_t>(&node - m_nodes.data());
-        stack[top++] = node.first;
-        stack[top++] = self + 1;
     }
     sortByDistance(hits, from);
 }

@@ -66,6 +66,7 @@ class SphereBvh {
                std::vector<SphereHit>& hits) const;
 
   private:
+    // The binary tree as built (median splits); queries use the 4-wide tree collapsed from it.
     struct Node {
         Eigen::AlignedBox3f bounds;
         // Leaves: [first, first + count) of m_order; inner nodes: count 0, children at
@@ -73,7 +74,18 @@ class SphereBvh {
         uint32_t first = 0;
         uint32_t count = 0;
     };
-    uint32_t build(uint32_t begin, uint32_t end, std::vector<Eigen::AlignedBox3f>& boxes);
+    // Up to four children whose boxes one query tests together (SSE, one lane per child):
+    // a binary node's children, each replaced by its own two children when it is inner.
+    struct WideNode {
+        float lower[3][4], upper[3][4];  // [axis][child]
+        // Child c: a leaf, [first[c], first[c] + count[c]) of m_leaf, when count[c] > 0, else
+        // the wide node first[c].
+        uint32_t first[4], count[4];
+        uint32_t children;  // 1 to 4
+    };
+    uint32_t build(uint32_t begin, uint32_t end, std::vector<Eigen::AlignedBox3f>& boxes,
+                   std::vector<Node>& nodes);
+    uint32_t collapse(const std::vector<Node>& nodes, uint32_t node);
     float radius2(uint32_t i) const {
         const float r = m_radii.size() == 1 ? m_radii[0] : m_radii[i];
         return r > 0.0f ? r * r : 0.0f;
@@ -91,7 +103,7 @@ class SphereBvh {
     std::vector<float> m_radii;
     std::vector<uint32_t> m_order;   // sphere indices, leaves' ranges point into it
     std::vector<LeafSphere> m_leaf;  // m_order's spheres, in its order
-    std::vector<Node> m_nodes;
+    std::vector<WideNode> m_wide;    // the root first
     uint32_t m_leafSize = 8;
 };
 

@@ -8,6 +8,7 @@
 #include <cstddef>
 
 #include <immintrin.h>
+#include <tbb/parallel_invoke.h>
 
 namespace alphorn {
 
@@ -48,9 +49,8 @@ SphereBvh::SphereBvh(std::vector<Point3f> centres, std::vector<float> radii, uin
         boxes[i] = Eigen::AlignedBox3f(m_centres[i] - Vector3f::Constant(r),
                                        m_centres[i] + Vector3f::Constant(r));
     }
-    std::vector<Node> nodes;
-    nodes.reserve(2 * (count / m_leafSize + 1));
-    build(0, count, boxes, nodes);
+    std::vector<Node> nodes(subtreeNodes(count));
+    build(0, count, 0, boxes, nodes);
     m_leaf.resize(count);
     for (uint32_t k = 0; k < count; ++k) {
         const uint32_t i = m_order[k];
@@ -60,23 +60,34 @@ SphereBvh::SphereBvh(std::vector<Point3f> centres, std::vector<float> radii, uin
     collapse(nodes, 0);
 }
 
-// Depth first, so the first child of an inner node is the next node. Splits at the median
-// centre along the longest axis of the centres' box: nth_element is deterministic for equal
-// input, and ties are broken by sphere index, so the tree is a pure function of the spheres.
-uint32_t SphereBvh::build(uint32_t begin, uint32_t end, std::vector<Eigen::AlignedBox3f>& boxes,
-                          std::vector<Node>& nodes) {
-    const auto nodeIndex = static_cast<uint32_t>(nodes.size());
-    nodes.emplace_back();
+uint32_t SphereBvh::subtreeNodes(uint32_t spheres) const {
+    if (spheres <= m_leafSize) return 1;
+    const uint32_t half = spheres / 2;
+    // Median splits differ by at most one sphere: most levels need one count, not two.
+    const uint32_t left = subtreeNodes(half);
+    return 1 + left + (spheres - half == half ? left : subtreeNodes(spheres - half));
+}
+
+// Depth first: node `nodeIndex` covers [begin, end) of m_order, its first child is the next node
+// and its second follows the first child's subtree, whose size the sphere count alone fixes. So
+// every node's place is known before it is built, and large subtrees are built in parallel
+// (disjoint ranges of m_order and of `nodes`) with the same result on any number of threads.
+// Splits at the median centre along the longest axis of the centres' box: nth_element is
+// deterministic for equal input, and ties are broken by sphere index, so the tree is a pure
+// function of the spheres.
+void SphereBvh::build(uint32_t begin, uint32_t end, uint32_t nodeIndex,
+                      const std::vector<Eigen::AlignedBox3f>& boxes, std::vector<Node>& nodes) {
     Eigen::AlignedBox3f bounds, centreBounds;
     for (uint32_t i = begin; i < end; ++i) {
         bounds.extend(boxes[m_order[i]]);
         centreBounds.extend(m_centres[m_order[i]]);
     }
-    nodes[nodeIndex].bounds = bounds;
+    Node& node = nodes[nodeIndex];
+    node.bounds = bounds;
     if (end - begin <= m_leafSize) {
-        nodes[nodeIndex].first = begin;
-        nodes[nodeIndex].count = end - begin;
-        return nodeIndex;
+        node.first = begin;
+        node.count = end - begin;
+        return;
     }
     int axis = 0;
     centreBounds.sizes().maxCoeff(&axis);
@@ -86,11 +97,18 @@ uint32_t SphereBvh::build(uint32_t begin, uint32_t end, std::vector<Eigen::Align
                          const float ca = m_centres[a][axis], cb = m_centres[b][axis];
                          return ca < cb || (ca == cb && a < b);
                      });
-    build(begin, middle, boxes, nodes);
-    const uint32_t second = build(middle, end, boxes, nodes);
-    nodes[nodeIndex].first = second;
-    nodes[nodeIndex].count = 0;
-    return nodeIndex;
+    const uint32_t second = nodeIndex + 1 + subtreeNodes(middle - begin);
+    node.first = second;
+    node.count = 0;
+    // Below this many spheres a task costs more than it saves.
+    constexpr uint32_t kParallelSpheres = 16384;
+    if (end - begin >= kParallelSpheres)
+        tbb::parallel_invoke([&] { build(begin, middle, nodeIndex + 1, boxes, nodes); },
+                             [&] { build(middle, end, second, boxes, nodes); });
+    else {
+        build(begin, middle, nodeIndex + 1, boxes, nodes);
+        build(middle, end, second, boxes, nodes);
+    }
 }
 
 // The wide node for binary node `node` (and, recursively, its subtree); returns its index. A

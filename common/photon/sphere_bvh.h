@@ -18,7 +18,8 @@
 // total order of the answer set, so the hits and any sum over them in that order are pure
 // functions of the sphere array, whatever the traversal order or the tree.
 //
-// Determinism: the BVH is built by one thread with a fixed median split.
+// Determinism: the BVH's median splits and node layout are fixed by the sphere array alone;
+// subtrees are built in parallel into places computed beforehand.
 #pragma once
 
 #include "common/core/common.h"
@@ -83,8 +84,9 @@ class SphereBvh {
         uint32_t first[4], count[4];
         uint32_t children;  // 1 to 4
     };
-    uint32_t build(uint32_t begin, uint32_t end, std::vector<Eigen::AlignedBox3f>& boxes,
-                   std::vector<Node>& nodes);
+    uint32_t subtreeNodes(uint32_t spheres) const;
+    void build(uint32_t begin, uint32_t end, uint32_t nodeIndex,
+               const std::vector<Eigen::AlignedBox3f>& boxes, std::vector<Node>& nodes);
     uint32_t collapse(const std::vector<Node>& nodes, uint32_t node);
     float radius2(uint32_t i) const {
         const float r = m_radii.size() == 1 ? m_radii[0] : m_radii[i];

@@ -6,6 +6,9 @@
 #include "common/core/rng.h"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
+
+#include <memory>
 
 namespace alphorn {
 namespace {
@@ -68,6 +71,32 @@ TEST(SphereBvhTest, FindsExactlyTheSpheresBruteForceFindsWithOneRadius) {
 
 TEST(SphereBvhTest, FindsExactlyTheSpheresBruteForceFindsWithPerSphereRadii) {
     checkAgainstBruteForce(true);
+}
+
+TEST(SphereBvhTest, TreesBuiltInParallelFindWhatBruteForceFinds) {
+    // Large enough that subtrees are built as parallel tasks into precomputed node places, on
+    // one thread and on several: every answer must still be brute force's.
+    const Spheres s = randomSpheres(60000, true, 3);
+    for (int threads : {1, 4}) {
+        tbb::task_arena arena(threads);
+        std::unique_ptr<SphereBvh> bvh;
+        arena.execute([&] { bvh = std::make_unique<SphereBvh>(s.centres, s.radii); });
+        Rng rng(8, 0, 0, StreamPurpose::Test);
+        size_t total = 0;
+        for (int q = 0; q < 60; ++q) {
+            const Point3f origin(3.0f * rng.nextFloat() - 1.5f, 3.0f * rng.nextFloat() - 1.5f,
+                                 3.0f * rng.nextFloat() - 1.5f);
+            const Vector3f direction =
+                Vector3f(rng.nextFloat() - 0.5f, rng.nextFloat() - 0.5f, rng.nextFloat() - 0.5f)
+                    .normalized();
+            std::vector<SphereHit> expected, actual;
+            bruteForceSphereQuery(s.centres, s.radii, origin, direction, 0.0f, 3.0f, expected);
+            bvh->query(origin, direction, 0.0f, 3.0f, actual);
+            expectSameHits(expected, actual, "parallel BVH", q);
+            total += expected.size();
+        }
+        EXPECT_GT(total, 5000u);
+    }
 }
 
 TEST(SphereBvhTest, ClipsAtTheClosestPointNotAtTheSphere) {

@@ -6,7 +6,9 @@
 // (radius_schedule.h), and with them the cost of every gather, so the first passes are the
 // slowest. The estimate interpolates the measured per-pass wall times linearly in the pass index
 // between the measured passes and sums over passes 0 .. total - 1 (the last measured pass should
-// be total - 1). It is an extrapolation and is printed as one.
+// be total - 1). It is an extrapolation and is printed as one. On a shared machine the wall
+// times follow the load; the same sum over CPU seconds divided by the threads is printed too,
+// the wall time the render would take if every thread had a core of its own.
 //
 // The render is the renderer's own: the same preparePasses and renderUnit that `alphorn render`
 // and the workers call, on as many threads as given (a tbb::global_control, as --threads sets).
@@ -41,6 +43,7 @@ struct PassTime {
     uint32_t pass;
     double photonWall, photonCpu, cameraWall, cameraCpu;
     double wall() const { return photonWall + cameraWall; }
+    double cpu() const { return photonCpu + cameraCpu; }
 };
 
 }  // namespace
@@ -92,21 +95,27 @@ int main(int argc, char** argv) {
             times.push_back(t);
         }
         // Piecewise-linear in the pass index through the measured passes, constant beyond them.
-        double estimate = 0.0;
-        size_t k = 0;
-        for (uint32_t p = 0; p < total; ++p) {
-            while (k + 1 < times.size() && times[k + 1].pass <= p) ++k;
-            double w = times[k].wall();
-            if (p > times[k].pass && k + 1 < times.size()) {
-                const double f = double(p - times[k].pass) / (times[k + 1].pass - times[k].pass);
-                w = (1 - f) * times[k].wall() + f * times[k + 1].wall();
+        auto interpolated = [&](auto&& seconds) {
+            double sum = 0.0;
+            size_t k = 0;
+            for (uint32_t p = 0; p < total; ++p) {
+                while (k + 1 < times.size() && times[k + 1].pass <= p) ++k;
+                double w = seconds(times[k]);
+                if (p > times[k].pass && k + 1 < times.size()) {
+                    const double f =
+                        double(p - times[k].pass) / (times[k + 1].pass - times[k].pass);
+                    w = (1 - f) * seconds(times[k]) + f * seconds(times[k + 1]);
+                }
+                sum += w;
             }
-            estimate += w;
-        }
+            return sum;
+        };
+        const double wall = interpolated([](const PassTime& t) { return t.wall(); });
+        const double cpu = interpolated([](const PassTime& t) { return t.cpu(); });
         std::printf(
-            "estimated render of %u passes (interpolated from the passes above): %.1f s = %.1f "
-            "min\n",
-            total, estimate, estimate / 60.0);
+            "estimated render of %u passes (interpolated from the passes above): wall %.1f s = "
+            "%.1f min; CPU %.1f s, / %d threads = %.1f min\n",
+            total, wall, wall / 60.0, cpu, threads, cpu / threads / 60.0);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "error: %s\n", e.what());
         return 1;

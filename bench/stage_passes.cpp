@@ -11,7 +11,8 @@
 // the wall time the render would take if every thread had a core of its own.
 //
 // The render is the renderer's own: the same preparePasses and renderUnit that `alphorn render`
-// and the workers call, on as many threads as given (a tbb::global_control, as --threads sets).
+// and the workers call, over tiles of 64 pixels in parallel as renderLocal() (`alphorn render`)
+// does, on as many threads as given (a tbb::global_control, as --threads sets).
 //
 // usage: bench_stage_passes [SCENE.xml] [threads] [total passes] [pass,pass,...]
 #include "bench/timing.h"
@@ -20,10 +21,12 @@
 #include "common/scene/scene.h"
 
 #include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
 
 #include <chrono>
 #include <cstdio>
 #include <ctime>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -67,15 +70,11 @@ int main(int argc, char** argv) {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
         std::shared_ptr<Scene> scene = loadScene(path);
         const Vector2i size = scene->camera()->outputSize();
-        Tile tile;
-        tile.x0 = tile.y0 = 0;
-        tile.x1 = size.x();
-        tile.y1 = size.y();
+        const std::vector<Tile> tiles = makeTiles(size.x(), size.y(), 64);
         std::printf("%s: %dx%d, %d threads\n", path.c_str(), size.x(), size.y(), threads);
         std::vector<PassTime> times;
         for (uint32_t pass : passes) {
             PassTime t{pass, 0, 0, 0, 0};
-            FilmBlock block = makeUnitBlock(*scene, tile);
             auto start = std::chrono::steady_clock::now();
             double cpu = cpuSeconds();
             auto data = preparePasses(*scene, 1, pass, pass + 1);
@@ -83,7 +82,15 @@ int main(int argc, char** argv) {
             t.photonCpu = cpuSeconds() - cpu;
             start = std::chrono::steady_clock::now();
             cpu = cpuSeconds();
-            renderUnit(*scene, 1, RenderUnit{pass, pass + 1, tile}, data, block);
+            // Tiles of 64 pixels in parallel, each its own unit, as renderLocal() renders them.
+            FilmBlock film(0, 0, size.x(), size.y());
+            std::mutex filmMutex;
+            tbb::parallel_for(size_t(0), tiles.size(), [&](size_t i) {
+                FilmBlock block = makeUnitBlock(*scene, tiles[i]);
+                renderUnit(*scene, 1, RenderUnit{pass, pass + 1, tiles[i]}, data, block);
+                std::lock_guard lock(filmMutex);
+                film.add(block);
+            });
             t.cameraWall = seconds(start);
             t.cameraCpu = cpuSeconds() - cpu;
             std::printf(

@@ -1,10 +1,14 @@
 #include "common/photon/photon_tracer.h"
 
+#include "common/emitter/delta_light.h"
 #include "common/integrator/direct.h"
 #include "common/integrator/volume.h"
 #include "common/scene/scene.h"
 
 #include <tbb/parallel_for.h>
+
+#include <optional>
+#include <utility>
 
 namespace alphorn {
 
@@ -16,12 +20,14 @@ constexpr uint64_t kChunk = 2048;
 
 // Starts a photon path: an emitter chosen in proportion to its power, then its own emission
 // sample. Returns false when nothing is emitted.
-bool emitPhoton(const Scene& scene, Sampler& sampler, Ray3f& ray, Color3f& flux) {
+bool emitPhoton(const Scene& scene, Sampler& sampler, Ray3f& ray, Color3f& flux,
+                const Emitter** chosen = nullptr) {
     float selection = sampler.next1D();
     const Point2f positionSample = sampler.next2D();
     const Point2f directionSample = sampler.next2D();
     float selectionPdf = 0.0f;
     const Emitter* emitter = scene.sampleEmitterByPower(selection, selectionPdf);
+    if (chosen) *chosen = emitter;
     if (!emitter || !(selectionPdf > 0.0f)) return false;
     flux = emitter->samplePhoton(ray, positionSample, directionSample) / selectionPdf;
     return flux.isValid() && !flux.isBlack();
@@ -80,6 +86,45 @@ const Medium* startMedium(const Scene& scene, const Ray3f& emitted) {
     return scene.camera()->medium();
 }
 
+// The medium around each point-like light (point, spotlight, projector), found once per pass
+// instead of once per photon: startMedium() traces one or more rays per photon (through every
+// surface between the light and the first medium boundary), a large share of a photon path's
+// rays in a scene like the stage. A light strictly inside a region sees that region's medium in
+// every direction; one that sits on a boundary does not, so a light is cached only when 14
+// directions (the axes and the cube's diagonals) all give the same medium. Area lights, whose
+// photons start at different points, keep the per-photon search.
+class StartMediumCache {
+  public:
+    explicit StartMediumCache(const Scene& scene) {
+        for (const auto& emitter : scene.emitters()) {
+            const auto* light = dynamic_cast<const DeltaPositionLight*>(emitter.get());
+            if (!light) continue;
+            std::optional<const Medium*> common;
+            bool agree = true;
+            for (int k = 0; k < 14 && agree; ++k) {
+                Vector3f d = k < 6 ? Vector3f::Unit(k / 2) * (k % 2 ? -1.0f : 1.0f)
+                                   : Vector3f(k & 1 ? 1.0f : -1.0f, k & 2 ? 1.0f : -1.0f,
+                                              k & 4 ? 1.0f : -1.0f)
+                                         .normalized();
+                const Medium* medium = startMedium(scene, Ray3f(light->position(), d));
+                if (common && *common != medium) agree = false;
+                common = medium;
+            }
+            if (agree && common) m_media.emplace_back(emitter.get(), *common);
+        }
+    }
+
+    // The medium an emitted photon starts in.
+    const Medium* lookup(const Scene& scene, const Emitter* emitter, const Ray3f& ray) const {
+        for (const auto& [light, medium] : m_media)
+            if (light == emitter) return medium;
+        return startMedium(scene, ray);
+    }
+
+  private:
+    std::vector<std::pair<const Emitter*, const Medium*>> m_media;
+};
+
 // Where each kind of photon goes; nullptr: not stored for this path.
 struct PhotonOutputs {
     std::vector<Photon>* surface = nullptr;
@@ -90,16 +135,18 @@ struct PhotonOutputs {
 // tracePhoton() through media: the free-flight and phase sampling of volume.h's path loop, run
 // from the light. The throughput carries spectral MIS for chromatic media (see MediumSample).
 void tracePhotonThroughMedia(const Scene& scene, Sampler& sampler,
-                             const Eigen::AlignedBox3f& mediaBox, const PhotonOutputs& out) {
+                             const Eigen::AlignedBox3f& mediaBox,
+                             const StartMediumCache& startMedia, const PhotonOutputs& out) {
     Ray3f emittedRay;
     Color3f flux;
-    if (!emitPhoton(scene, sampler, emittedRay, flux)) return;
+    const Emitter* emitter = nullptr;
+    if (!emitPhoton(scene, sampler, emittedRay, flux, &emitter)) return;
     const float length = emittedRay.d.norm();
     if (!(length > 0.0f)) return;
     // Unit direction: media measure distances in world units.
     Ray3f ray(emittedRay.o, emittedRay.d / length, emittedRay.mint * length,
               emittedRay.maxt * length);
-    const Medium* medium = startMedium(scene, ray);
+    const Medium* medium = startMedia.lookup(scene, emitter, ray);
     Eigen::AlignedBox3f bounds = mediaBox;
     bounds.extend(ray.o);
 
@@ -208,6 +255,7 @@ TracedPhotons tracePhotonsThroughMedia(const Scene& scene, uint64_t seed, uint64
     const uint64_t count = std::max(surfaceCount, volumeCount);
     if (count == 0 || scene.emitters().empty()) return result;
     const Eigen::AlignedBox3f mediaBox = mediaBounds(scene);
+    const StartMediumCache startMedia(scene);
     const uint64_t chunks = (count + kChunk - 1) / kChunk;
     std::vector<std::vector<Photon>> surface(chunks), volume(chunks);
     std::vector<std::vector<const Medium*>> volumeMedia(chunks);
@@ -222,7 +270,7 @@ TracedPhotons tracePhotonsThroughMedia(const Scene& scene, uint64_t seed, uint64
                 out.volume = &volume[c];
                 out.volumeMedia = &volumeMedia[c];
             }
-            tracePhotonThroughMedia(scene, *sampler, mediaBox, out);
+            tracePhotonThroughMedia(scene, *sampler, mediaBox, startMedia, out);
         }
     });
     result.surface = concatenate(surface);

@@ -107,6 +107,41 @@ TEST_F(VolumePhotonTest, ScatteringPhotonsCarryTheCollisionDensity) {
     EXPECT_TRUE(traced.surface.empty());  // surfaceCount 0: none kept
 }
 
+TEST_F(VolumePhotonTest, PointLightsStartInTheMediumAroundThem) {
+    // A null sphere of radius 1 holding a scattering medium inside a black box, the camera in
+    // vacuum, and one point light inside the sphere or outside it. The tracer finds each point
+    // light's medium once per pass (not per photon): photons of the light inside must start in
+    // the sphere's medium and scatter there, those of the light outside must fly through vacuum
+    // and scatter only once they enter the sphere.
+    auto sceneWithLightAt = [&](const std::string& position) {
+        const std::string text =
+            "<scene>\n<integrator type=\"normals\"/>\n<camera type=\"perspective\"/>\n"
+            "<mesh type=\"obj\"><string name=\"filename\" value=\"" +
+            kMeshes +
+            "cube_inward.obj\"/><transform name=\"toWorld\"><scale value=\"4, 4, 4\"/></transform>"
+            "<bsdf type=\"diffuse\"><color name=\"albedo\" value=\"0\"/></bsdf></mesh>\n"
+            "<mesh type=\"obj\"><string name=\"filename\" value=\"" +
+            kMeshes +
+            "sphere.obj\"/><bsdf type=\"null\"/><medium type=\"homogeneous\" "
+            "name=\"inside\"><color name=\"sigmaS\" value=\"2\"/><color name=\"sigmaA\" "
+            "value=\"0\"/></medium></mesh>\n<emitter type=\"point\"><point "
+            "name=\"position\" value=\"" +
+            position + "\"/><color name=\"power\" value=\"1\"/></emitter>\n</scene>\n";
+        const std::filesystem::path path = m_dir / "scene.xml";
+        std::ofstream(path) << text;
+        return loadScene(path.string());
+    };
+    for (const char* position : {"0.1, 0.2, 0", "0, 0, 2.5"}) {
+        auto scene = sceneWithLightAt(position);
+        const TracedPhotons traced = tracePhotonsThroughMedia(*scene, 3, 0, 0, 4000);
+        ASSERT_GT(traced.volume.size(), 400u) << position;
+        for (size_t i = 0; i < traced.volume.size(); ++i) {
+            ASSERT_LE(traced.volume[i].position.norm(), 1.0f + 1e-4f) << position;
+            ASSERT_NE(traced.volumeMedia[i], nullptr) << position;
+        }
+    }
+}
+
 TEST(VolumePhotonMapTest, NearestNeighbourRadiiAreTheKthDistances) {
     Rng rng(3, 0, 0, StreamPurpose::Test);
     std::vector<Photon> photons(800);

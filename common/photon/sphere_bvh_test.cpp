@@ -76,14 +76,14 @@ TEST(SphereBvhTest, FindsExactlyTheSpheresBruteForceFindsWithPerSphereRadii) {
 TEST(SphereBvhTest, TreesBuiltInParallelFindWhatBruteForceFinds) {
     // Large enough that subtrees are built as parallel tasks into precomputed node places, on
     // one thread and on several: every answer must still be brute force's.
-    const Spheres s = randomSpheres(60000, true, 3);
+    const Spheres s = randomSpheres(36000, true, 3);
     for (int threads : {1, 4}) {
         tbb::task_arena arena(threads);
         std::unique_ptr<SphereBvh> bvh;
         arena.execute([&] { bvh = std::make_unique<SphereBvh>(s.centres, s.radii); });
         Rng rng(8, 0, 0, StreamPurpose::Test);
         size_t total = 0;
-        for (int q = 0; q < 60; ++q) {
+        for (int q = 0; q < 30; ++q) {
             const Point3f origin(3.0f * rng.nextFloat() - 1.5f, 3.0f * rng.nextFloat() - 1.5f,
                                  3.0f * rng.nextFloat() - 1.5f);
             const Vector3f direction =
@@ -95,7 +95,7 @@ TEST(SphereBvhTest, TreesBuiltInParallelFindWhatBruteForceFinds) {
             expectSameHits(expected, actual, "parallel BVH", q);
             total += expected.size();
         }
-        EXPECT_GT(total, 5000u);
+        EXPECT_GT(total, 1500u);
     }
 }
 

@@ -97,12 +97,10 @@ grpc::Status ClientServiceImpl::PutBlobs(grpc::ServerContext* context,
     return guarded(context, m_token, "PutBlobs", [&] {
         std::unique_ptr<BlobStore::Upload> upload;
         std::string current;
-        uint64_t size = 0;
         v1::BlobChunk chunk;
         while (reader->Read(&chunk)) {
             if (current.empty()) {
                 current = chunk.sha256();
-                size = 0;
                 try {
                     upload = std::make_unique<BlobStore::Upload>(m_coordinator.blobs(), current);
                 } catch (const Error& e) {
@@ -112,7 +110,6 @@ grpc::Status ClientServiceImpl::PutBlobs(grpc::ServerContext* context,
                 return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
                                     "a new blob started before the last chunk of " + current);
             }
-            size += chunk.data().size();
             try {
                 upload->append(chunk.data());
             } catch (const Error& e) {
@@ -122,7 +119,7 @@ grpc::Status ClientServiceImpl::PutBlobs(grpc::ServerContext* context,
             if (chunk.last()) {
                 try {
                     if (upload->commit()) {
-                        m_coordinator.recordBlob(current, size);
+                        m_coordinator.touchBlobs({current});
                         response->set_stored(response->stored() + 1);
                     } else {
                         response->set_already_present(response->already_present() + 1);

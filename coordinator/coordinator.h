@@ -23,6 +23,7 @@
 
 #include <chrono>
 #include <condition_variable>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -105,6 +106,13 @@ class Coordinator {
 
     // Coordinator memory a running job takes: its whole-image film plus per-unit bookkeeping.
     static uint64_t jobMemoryBytes(int width, int height, uint64_t unitCount);
+
+    // Runs `look` on the scheduler under the lock: for tests and the simulation, which check
+    // the lease tables after each step.
+    void inspect(const std::function<void(const LeaseScheduler&)>& look) const {
+        std::lock_guard lock(m_mutex);
+        look(*m_scheduler);
+    }
 
     // Upper bound on a unit result's compressed size (for refusing oversized streams early).
     uint64_t maxResultBytes(uint64_t jobId) const;

@@ -2,6 +2,8 @@
 
 #include "common/core/error.h"
 
+#include <absl/strings/str_format.h>
+
 namespace alphorn::coordinator {
 
 LeaseScheduler::LeaseScheduler(const Clock& clock, SchedulerOptions options, LeaseTokens tokens,
@@ -281,6 +283,73 @@ LeaseScheduler::expireLeases() {
         result.emplace_back(lost, countFailure(ref.jobId, target, ref.unitIndex));
     }
     return result;
+}
+
+std::string LeaseScheduler::checkConsistency() const {
+    std::string problems;
+    const auto problem = [&](const std::string& text) { problems += text + "; "; };
+    for (const auto& [leaseId, ref] : m_leases) {
+        auto owner = m_jobs.find(ref.jobId);
+        if (owner == m_jobs.end() || ref.unitIndex >= owner->second.units.size()) {
+            problem(absl::StrFormat("lease %u names no unit", leaseId));
+            continue;
+        }
+        const UnitSlot& slot = owner->second.units[ref.unitIndex];
+        if (slot.state != UnitState::Leased || slot.leaseId != leaseId)
+            problem(absl::StrFormat("lease %u: job %u unit %u is held by lease %u (state %d)",
+                                    leaseId, ref.jobId, ref.unitIndex, slot.leaseId,
+                                    int(slot.state)));
+        auto worker = m_workers.find(slot.workerId);
+        if (worker == m_workers.end() || !worker->second.leases.count(leaseId))
+            problem(
+                absl::StrFormat("lease %u: worker %u does not hold it", leaseId, slot.workerId));
+    }
+    size_t workerLeases = 0;
+    for (const auto& [id, worker] : m_workers) {
+        workerLeases += worker.leases.size();
+        for (uint64_t leaseId : worker.leases)
+            if (!m_leases.count(leaseId))
+                problem(absl::StrFormat("worker %u holds lease %u that is not in the table", id,
+                                        leaseId));
+    }
+    if (workerLeases != m_leases.size())
+        problem(absl::StrFormat("workers hold %u leases, the table has %u", workerLeases,
+                                m_leases.size()));
+    for (const auto& [jobId, job] : m_jobs) {
+        JobLeases recount;
+        std::map<uint64_t, uint32_t> byWorker;
+        for (uint32_t i = 0; i < job.units.size(); ++i) {
+            const UnitSlot& slot = job.units[i];
+            if (slot.state == UnitState::Leased) {
+                ++recount.leased;
+                ++byWorker[slot.workerId];
+                auto ref = m_leases.find(slot.leaseId);
+                if (ref == m_leases.end() || ref->second.jobId != jobId ||
+                    ref->second.unitIndex != i)
+                    problem(
+                        absl::StrFormat("job %u unit %u is leased by lease %u, which is not "
+                                        "in the table for it",
+                                        jobId, i, slot.leaseId));
+            }
+            recount.attemptsFailed += slot.attempts;
+            if (job.pending.count(i) != (job.running && slot.state == UnitState::Pending))
+                problem(absl::StrFormat("job %u unit %u: pending %d, state %d, running %d", jobId,
+                                        i, int(job.pending.count(i)), int(slot.state),
+                                        int(job.running)));
+        }
+        if (!job.running && recount.leased > 0)
+            problem(absl::StrFormat("ended job %u has %u leases", jobId, recount.leased));
+        recount.activeWorkers = uint32_t(byWorker.size());
+        if (recount.leased != job.counts.leased ||
+            recount.activeWorkers != job.counts.activeWorkers ||
+            recount.attemptsFailed != job.counts.attemptsFailed || byWorker != job.leasesByWorker)
+            problem(absl::StrFormat(
+                "job %u counts %u leased, %u workers, %u failed; a recount "
+                "gives %u, %u, %u",
+                jobId, job.counts.leased, job.counts.activeWorkers, job.counts.attemptsFailed,
+                recount.leased, recount.activeWorkers, recount.attemptsFailed));
+    }
+    return problems;
 }
 
 }  // namespace alphorn::coordinator

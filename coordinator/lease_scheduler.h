@@ -114,6 +114,12 @@ class LeaseScheduler {
     // Releases every lease past its deadline and counts an attempt for each (in lease order).
     std::vector<std::pair<ExpiredLease, Failure>> expireLeases();
 
+    // Walks every table and returns what disagrees (empty when consistent): each lease in the
+    // lease table names a leased unit that names it back and its worker holds it, no unit is
+    // leased twice, pending units are exactly the waiting units of running jobs, and the
+    // counters equal a recount. For tests and the simulation; it takes time per unit.
+    std::string checkConsistency() const;
+
   private:
     struct Job {
         int priority = 0;

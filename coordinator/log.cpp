@@ -1,5 +1,6 @@
 #include "coordinator/log.h"
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -21,6 +22,12 @@ static std::string quoteIfNeeded(const std::string& value) {
     return quoted + "\"";
 }
 
+static std::atomic<LogSink> g_sink{nullptr};
+
+void setLogSink(LogSink sink) {
+    g_sink = sink;
+}
+
 void logEvent(const char* level, const std::string& event, std::initializer_list<LogField> fields) {
     using namespace std::chrono;
     const auto now = system_clock::now();
@@ -35,6 +42,10 @@ void logEvent(const char* level, const std::string& event, std::initializer_list
     std::string line = std::string("ts=") + stamp + " level=" + level + " event=" + event;
     for (const auto& [key, value] : fields) line += " " + key + "=" + quoteIfNeeded(value);
     line += "\n";
+    if (LogSink sink = g_sink) {
+        sink(line);
+        return;
+    }
     static std::mutex mutex;
     std::lock_guard lock(mutex);
     std::fputs(line.c_str(), stderr);

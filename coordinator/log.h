@@ -11,6 +11,11 @@ namespace alphorn::coordinator {
 
 using LogField = std::pair<std::string, std::string>;
 
+// Where log lines go: a function that takes each finished line (stderr when none is set).
+// The simulation collects them per seed and prints them only for a failing one.
+using LogSink = void (*)(const std::string& line);
+void setLogSink(LogSink sink);
+
 void logEvent(const char* level, const std::string& event, std::initializer_list<LogField> fields);
 inline void logInfo(const std::string& event, std::initializer_list<LogField> fields = {}) {
     logEvent("info", event, fields);

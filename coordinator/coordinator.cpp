@@ -489,6 +489,7 @@ void Coordinator::endJobLocked(Job& job, v1::JobState state, const std::string& 
     // Memory first, store last: if the write fails (a full disk) the job has ended in this
     // process, and a restart finds it as the store says (a finished film is finished again).
     m_store.setJobState(job.id, state, error, job.finishedAt);
+    if (m_durableWriteHook) m_durableWriteHook();
     (state == v1::JOB_STATE_DONE ? logInfo : logWarning)(
         "job.ended",
         {field("job", job.id), field("state", farm::jobStateName(state)), field("error", error),
@@ -644,6 +645,7 @@ void Coordinator::recordFailureLocked(Job& job, const LeaseScheduler::Failure& f
                                       const std::string& message) {
     try {
         m_store.setUnitAttempts(job.id, failure.unitIndex, failure.attempts, message);
+        if (m_durableWriteHook) m_durableWriteHook();
     } catch (const StorageError& e) {
         // The unit goes back in the queue all the same; only the count may restart from less.
         logWarning(
@@ -819,6 +821,7 @@ void Coordinator::writeJobCheckpoint(Job& job, const JobFilm::Copy& copy) {
     const double start = m_clock->monotonicSeconds();
     try {
         job.film->writeFile(copy);
+        if (m_durableWriteHook) m_durableWriteHook();
     } catch (const std::exception& e) {
         std::lock_guard lock(m_mutex);
         job.film->checkpointFailed(e.what());

@@ -114,6 +114,11 @@ class Coordinator {
         look(*m_scheduler);
     }
 
+    // Called after each durable write that a crash could be right after: a checkpoint file, a
+    // job's end, a failed attempt. The simulation copies the state directory there, to restart
+    // from the state a crash at that moment leaves. Set it before use from a single thread.
+    void setDurableWriteHook(std::function<void()> hook) { m_durableWriteHook = std::move(hook); }
+
     // Upper bound on a unit result's compressed size (for refusing oversized streams early).
     uint64_t maxResultBytes(uint64_t jobId) const;
 
@@ -178,6 +183,7 @@ class Coordinator {
     bool m_stopping = false, m_stopped = false;
     std::thread m_background;
     std::condition_variable m_backgroundWake;
+    std::function<void()> m_durableWriteHook;
 };
 
 }  // namespace alphorn::coordinator

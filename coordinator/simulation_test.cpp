@@ -95,8 +95,7 @@ class Simulation {
   public:
     Simulation(uint64_t seed, const Options& options, const fs::path& root,
                const fs::path& sceneDirectory, int border)
-        : m_seed(seed),
-          m_options(options),
+        : m_options(options),
           m_random(seed),
           m_root(root),
           m_sceneDirectory(sceneDirectory),
@@ -410,9 +409,11 @@ class Simulation {
             if (job.state != v1::JOB_STATE_RUNNING || status.state() != v1::JOB_STATE_RUNNING)
                 continue;
             std::set<uint32_t> restored;
+            const uint64_t jobId = id;
+            const uint32_t unitCount = job.grid.unitCount();
             m_coordinator->inspect([&](const LeaseScheduler& scheduler) {
-                for (uint32_t i = 0; i < job.grid.unitCount(); ++i)
-                    if (scheduler.unit(id, i).state == LeaseScheduler::UnitState::Merged)
+                for (uint32_t i = 0; i < unitCount; ++i)
+                    if (scheduler.unit(jobId, i).state == LeaseScheduler::UnitState::Merged)
                         restored.insert(i);
             });
             for (uint32_t unit : restored)
@@ -546,7 +547,6 @@ class Simulation {
         violate("the jobs did not end after the schedule: a hang");
     }
 
-    uint64_t m_seed;
     Options m_options;
     Random m_random;
     fs::path m_root, m_sceneDirectory;

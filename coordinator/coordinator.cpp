@@ -488,8 +488,9 @@ void Coordinator::endJobLocked(Job& job, v1::JobState state, const std::string& 
     if (state != v1::JOB_STATE_DONE) job.film->release();
     // Memory first, store last: if the write fails (a full disk) the job has ended in this
     // process, and a restart finds it as the store says (a finished film is finished again).
+    if (m_durableWriteHooks.before) m_durableWriteHooks.before();
     m_store.setJobState(job.id, state, error, job.finishedAt);
-    if (m_durableWriteHook) m_durableWriteHook();
+    if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     (state == v1::JOB_STATE_DONE ? logInfo : logWarning)(
         "job.ended",
         {field("job", job.id), field("state", farm::jobStateName(state)), field("error", error),
@@ -644,8 +645,9 @@ v1::HeartbeatResponse Coordinator::heartbeat(const v1::HeartbeatRequest& request
 void Coordinator::recordFailureLocked(Job& job, const LeaseScheduler::Failure& failure,
                                       const std::string& message) {
     try {
+        if (m_durableWriteHooks.before) m_durableWriteHooks.before();
         m_store.setUnitAttempts(job.id, failure.unitIndex, failure.attempts, message);
-        if (m_durableWriteHook) m_durableWriteHook();
+        if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     } catch (const StorageError& e) {
         // The unit goes back in the queue all the same; only the count may restart from less.
         logWarning(
@@ -820,8 +822,9 @@ void Coordinator::writeJobCheckpoint(Job& job, const JobFilm::Copy& copy) {
     }
     const double start = m_clock->monotonicSeconds();
     try {
+        if (m_durableWriteHooks.before) m_durableWriteHooks.before();
         job.film->writeFile(copy);
-        if (m_durableWriteHook) m_durableWriteHook();
+        if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     } catch (const std::exception& e) {
         std::lock_guard lock(m_mutex);
         job.film->checkpointFailed(e.what());

@@ -114,10 +114,14 @@ class Coordinator {
         look(*m_scheduler);
     }
 
-    // Called after each durable write that a crash could be right after: a checkpoint file, a
-    // job's end, a failed attempt. The simulation copies the state directory there, to restart
-    // from the state a crash at that moment leaves. Set it before use from a single thread.
-    void setDurableWriteHook(std::function<void()> hook) { m_durableWriteHook = std::move(hook); }
+    // Hooks around each durable write that storage could refuse or a crash could follow: a
+    // checkpoint file, a job's end, a failed attempt. The simulation uses them to stand for a
+    // full disk (`before` throws StorageError) and to copy the state directory as a crash at
+    // that moment leaves it (`after`). Set them from the thread that drives the coordinator.
+    struct DurableWriteHooks {
+        std::function<void()> before, after;
+    };
+    void setDurableWriteHooks(DurableWriteHooks hooks) { m_durableWriteHooks = std::move(hooks); }
 
     // Upper bound on a unit result's compressed size (for refusing oversized streams early).
     uint64_t maxResultBytes(uint64_t jobId) const;
@@ -183,7 +187,7 @@ class Coordinator {
     bool m_stopping = false, m_stopped = false;
     std::thread m_background;
     std::condition_variable m_backgroundWake;
-    std::function<void()> m_durableWriteHook;
+    DurableWriteHooks m_durableWriteHooks;
 };
 
 }  // namespace alphorn::coordinator

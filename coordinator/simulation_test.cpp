@@ -122,6 +122,7 @@ class Simulation {
                 checkInvariants();
             }
             m_crashCountdown = -1;
+            m_diskFull = false;
             drain();
         } catch (const Violation& violation) {
             return violation.what;
@@ -146,6 +147,9 @@ class Simulation {
         uint32_t durable = 0;       // units in the last checkpoint written
         uint32_t checkpointsSeen = 0;
         bool cancelRequested = false;
+        // It ended while the disk was full: the store may not know, and a restart may find it
+        // running again (the uncommitted step a restart may lose).
+        bool endUncommitted = false;
         bool imageChecked = false;
     };
     struct HeldLease {
@@ -161,9 +165,10 @@ class Simulation {
 
     [[noreturn]] void violate(const std::string& what) { throw Violation{what}; }
     void note(const std::string& line) {
-        for (const char* event : {"RESULT_MERGED", "RESULT_DISCARDED", "RESULT_RECORDED",
-                                  "crash and restart", "graceful stop", "crash inside the step",
-                                  "crashes", "cancel job", "late for", "duplicate for"})
+        for (const char* event :
+             {"RESULT_MERGED", "RESULT_DISCARDED", "RESULT_RECORDED", "crash and restart",
+              "graceful stop", "crash inside the step", "crashes", "cancel job", "late for",
+              "duplicate for", "disk full"})
             if (line.find(event) != std::string::npos) ++g_coverage[event];
         m_trace.push_back(absl::StrFormat("t=%.1f %s", m_clock->monotonicSeconds(), line));
     }
@@ -179,7 +184,12 @@ class Simulation {
         options.keepFinishedSeconds = 0;
         options.maxMemoryBytes = uint64_t(1) << 30;
         m_coordinator = std::make_unique<Coordinator>(options, m_clock);
-        m_coordinator->setDurableWriteHook([this] { durableWrite(); });
+        m_coordinator->setDurableWriteHooks({[this] {
+                                                 if (m_diskFull)
+                                                     throw StorageError(
+                                                         "No space left on device (simulated)");
+                                             },
+                                             [this] { durableWrite(); }});
         for (auto& [id, job] : m_jobs) job.checkpointsSeen = 0;
     }
 
@@ -351,7 +361,7 @@ class Simulation {
     // what the next process starts from. (The old object then stops, writing only to its own,
     // abandoned directory.)
     void crashCoordinator() {
-        m_coordinator->setDurableWriteHook({});
+        m_coordinator->setDurableWriteHooks({});
         const fs::path from = stateDirectory();
         ++m_generation;
         fs::copy(from, stateDirectory(), fs::copy_options::recursive);
@@ -376,7 +386,7 @@ class Simulation {
     void crashAtCopiedPoint() {
         m_crashTaken = false;
         m_crashCountdown = -1;
-        m_coordinator->setDurableWriteHook({});
+        m_coordinator->setDurableWriteHooks({});
         m_coordinator.reset();
         ++m_generation;
         fs::remove(stateDirectory() / "lock");
@@ -389,7 +399,8 @@ class Simulation {
         if (m_crashTaken) return;  // it crashed while stopping: after the step
         m_coordinator.reset();
         note("coordinator graceful stop and restart");
-        restarted(false);
+        // With a full disk the stop could not checkpoint: as after a crash.
+        restarted(m_diskFull);
     }
 
     // After a restart: every ended job is as it was; a running job lost at most the units merged
@@ -401,6 +412,14 @@ class Simulation {
         open(stateDirectory());
         for (auto& [id, job] : m_jobs) {
             const v1::JobStatus status = m_coordinator->listJobs(id).at(0);
+            // An end the store never got: the job runs again from its last checkpoint (its film
+            // was released when it ended, so nothing later was saved).
+            const bool endLost = job.endUncommitted && status.state() == v1::JOB_STATE_RUNNING;
+            if (endLost) {
+                job.state = v1::JOB_STATE_RUNNING;
+                job.cancelRequested = false;
+            }
+            job.endUncommitted = false;
             if (job.state != v1::JOB_STATE_RUNNING && status.state() != job.state)
                 violate(absl::StrFormat("job %u was %s, after the restart %s", id,
                                         v1::JobState_Name(job.state),
@@ -419,7 +438,7 @@ class Simulation {
             for (uint32_t unit : restored)
                 if (!job.merged.count(unit))
                     violate(absl::StrFormat("job %u unit %u restored but never merged", id, unit));
-            const uint32_t atLeast = crashed ? job.durable : mergedBefore[id];
+            const uint32_t atLeast = crashed || endLost ? job.durable : mergedBefore[id];
             if (restored.size() < atLeast)
                 violate(absl::StrFormat("job %u restored %u units, %u were checkpointed", id,
                                         restored.size(), atLeast));
@@ -464,10 +483,17 @@ class Simulation {
                 if (job.state == v1::JOB_STATE_RUNNING) running.push_back(id);
             if (!running.empty()) {
                 SimJob& job = m_jobs.at(running[m_random.below(uint32_t(running.size()))]);
-                const v1::JobStatus status = m_coordinator->cancel(job.id);
-                note(absl::StrFormat("cancel job %u: %s", job.id,
-                                     v1::JobState_Name(status.state())));
-                if (status.state() == v1::JOB_STATE_CANCELLED) job.cancelRequested = true;
+                try {
+                    const v1::JobStatus status = m_coordinator->cancel(job.id);
+                    note(absl::StrFormat("cancel job %u: %s", job.id,
+                                         v1::JobState_Name(status.state())));
+                    if (status.state() == v1::JOB_STATE_CANCELLED) job.cancelRequested = true;
+                } catch (const StorageError& e) {
+                    // Ended in this process, not in the store (the client saw UNAVAILABLE).
+                    note(absl::StrFormat("cancel job %u: %s", job.id, e.what()));
+                    job.cancelRequested = true;
+                    job.endUncommitted = true;
+                }
             }
         } else if (roll < 95) {
             if (m_jobs.size() < 4) submit();
@@ -477,8 +503,11 @@ class Simulation {
             m_crashCountdown = int(m_random.below(3));
             note(absl::StrFormat("a crash is due after the next %d durable writes",
                                  m_crashCountdown + 1));
-        } else {
+        } else if (roll < 99) {
             restartCoordinator();
+        } else {
+            m_diskFull = !m_diskFull;
+            note(m_diskFull ? "disk full" : "disk space freed");
         }
     }
 
@@ -504,12 +533,18 @@ class Simulation {
             if (job.cancelRequested && status.state() != v1::JOB_STATE_CANCELLED)
                 violate(absl::StrFormat("cancelled job %u is %s", id,
                                         v1::JobState_Name(status.state())));
+            if (status.state() == v1::JOB_STATE_RUNNING &&
+                status.units_done() == status.units_total() &&
+                status.error().find("cannot write the checkpoint") != std::string::npos)
+                ++g_coverage["done but the final checkpoint failing"];
             if (status.checkpoints_written() > job.checkpointsSeen) {
                 job.checkpointsSeen = status.checkpoints_written();
                 job.durable = status.units_done();
             }
-            if (job.state == v1::JOB_STATE_RUNNING && status.state() != job.state)
+            if (job.state == v1::JOB_STATE_RUNNING && status.state() != job.state) {
                 ++g_coverage[std::string("job ") + v1::JobState_Name(status.state())];
+                if (m_diskFull) job.endUncommitted = true;
+            }
             job.state = status.state();
             if (job.state == v1::JOB_STATE_DONE && !job.imageChecked) {
                 if (job.merged.size() != job.grid.unitCount())
@@ -556,6 +591,7 @@ class Simulation {
     int m_generation = 0;
     int m_crashCountdown = -1;  // durable writes before a crash inside a step; -1: none due
     bool m_crashTaken = false;
+    bool m_diskFull = false;  // checkpoint, job-end and attempt writes fail
     std::map<uint64_t, SimJob> m_jobs;
     std::vector<SimWorker> m_workers;
     std::vector<std::string> m_trace;

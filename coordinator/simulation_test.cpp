@@ -4,10 +4,11 @@
 // deliver synthetic unit results: the film of a unit is a pure function of (the job id the worker
 // was told, unit, pass), so the expected final film of a job is the direct sum over its units.
 // Schedules mix worker crashes, hangs with late returns, duplicate and late results, failures and
-// hand-backs, results for cancelled jobs, several jobs with priorities, cancels, and coordinator
-// crashes (the state directory copied as it is on disk between two steps, then reopened) and
-// graceful restarts. After every step the invariants below are checked; a failing seed prints its
-// number and its trace and replays with --seed.
+// hand-backs, results for cancelled jobs, several jobs with priorities, cancels, a full disk,
+// coordinator crashes (the state directory copied as it is on disk, between two steps or right
+// after a durable write inside one, then reopened) and graceful restarts. After every step the
+// invariants are checked (checkInvariants, restarted); a failing seed prints its number and its
+// last steps, and replays with --seed (or ALPHORN_SIM_SEED).
 //
 // Usage: alphorn_coordinator_simulation [--seeds N] [--first-seed S] [--seed S] [--steps K]
 //        [--verbose]

@@ -70,7 +70,8 @@ class Coordinator {
     void stop();
     // The background work, once: expires leases that are past their deadline, and when due
     // (by the clock) removes what the keep time lets go (every minute) and checkpoints the jobs
-    // with new merges (every checkpoint interval).
+    // with new merges (every checkpoint interval). The background thread calls it; without
+    // start(), whoever drives the coordinator (the simulation) calls it, from one thread.
     void tick();
 
     BlobStore& blobs() { return m_blobs; }

@@ -226,6 +226,19 @@ class Simulation {
         job.grid =
             farm::JobGrid(int(status.width()), int(status.height()), int(settings.tile_size()),
                           settings.passes(), settings.passes_per_unit());
+        // The units cover the image's every pixel with every pass (a job of no units would be
+        // "done" at once, with an empty film).
+        uint64_t samples = 0;
+        for (uint32_t i = 0; i < job.grid.unitCount(); ++i) {
+            const RenderUnit unit = job.grid.unit(i);
+            samples +=
+                uint64_t(unit.tile.width()) * unit.tile.height() * (unit.passEnd - unit.passBegin);
+        }
+        if (samples != uint64_t(status.width()) * status.height() * settings.passes())
+            violate(
+                absl::StrFormat("job %u: its %u units hold %u samples, the image needs %u", job.id,
+                                job.grid.unitCount(), samples,
+                                uint64_t(status.width()) * status.height() * settings.passes()));
         job.expected = FilmBlock(0, 0, job.grid.width(), job.grid.height());
         for (uint32_t i = 0; i < job.grid.unitCount(); ++i)
             job.expected.add(unitResult(job.id, job.grid.unit(i), m_border));

@@ -223,14 +223,17 @@ v1::JobStatus FarmClient::watch(uint64_t jobId, bool quiet) {
             }
             last = status;
             if (quiet) continue;
+            // Counted in merged units, which move between passes (a pass is done only when its
+            // every tile is merged, so a count of passes would sit still for a long time).
             if (!progress)
                 progress = std::make_unique<ProgressLine>(absl::StrFormat("job %u", jobId),
-                                                          status.settings().passes());
+                                                          status.units_total(), "units");
             progress->update(
-                status.passes_done(),
-                absl::StrFormat("%.2f Msamples/s  %u workers  %u/%u units%s",
-                                status.samples_per_second() * 1e-6, status.active_workers(),
-                                status.units_done(), status.units_total(),
+                status.units_done(),
+                absl::StrFormat("%u/%u passes  %s  %u workers%s", status.passes_done(),
+                                status.settings().passes(),
+                                speedText(status.samples_per_second(), std::nullopt),
+                                status.active_workers(),
                                 status.has_photon_radius()
                                     ? absl::StrFormat("  radius %.4g", status.photon_radius())
                                     : ""),

@@ -15,6 +15,9 @@ namespace alphorn::cli {
 inline constexpr int kExitOk = 0;         // the job finished and its image was written
 inline constexpr int kExitError = 1;      // bad input, unreachable coordinator, refused call
 inline constexpr int kExitJobFailed = 3;  // the job failed or was cancelled
+// `alphorn render` stopped by Ctrl-C (SIGINT): the image of the passes done was written. The
+// shell's code for a process ended by SIGINT (128 + 2), so scripts see the interruption.
+inline constexpr int kExitInterrupted = 130;
 
 struct FarmConnectionOptions {
     std::string coordinator;  // default: $ALPHORN_COORDINATOR

@@ -18,6 +18,7 @@ FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
     std::mutex filmMutex;
     const uint32_t chunk = std::max<uint32_t>(1, settings.passesPerUnit);
     for (uint32_t begin = 0; begin < settings.passes; begin += chunk) {
+        if (settings.stop && settings.stop->load()) break;
         const uint32_t end = std::min(settings.passes, begin + chunk);
         // Pass data (photon maps) is built once and shared by every tile of these passes.
         const auto passData = preparePasses(scene, settings.seed, begin, end);

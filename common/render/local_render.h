@@ -4,6 +4,7 @@
 
 #include "common/render/unit.h"
 
+#include <atomic>
 #include <functional>
 
 namespace alphorn {
@@ -13,6 +14,10 @@ struct RenderSettings {
     uint32_t passes = 1;
     int tileSize = 64;
     uint32_t passesPerUnit = 1;
+    // Checked between chunks of passes: once it is true, rendering stops there and the film
+    // holds exactly the passes completed, as a render of that many passes would (Ctrl-C, a time
+    // limit).
+    const std::atomic<bool>* stop = nullptr;
 };
 
 struct RenderStatus {
@@ -26,7 +31,7 @@ struct RenderStatus {
 // Called from the rendering thread after each chunk of passes.
 using ProgressCallback = std::function<void(const RenderStatus&)>;
 
-// Renders all passes and returns the film over the whole image.
+// Renders all passes (or those before settings.stop) and returns the film over the whole image.
 FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
                       const ProgressCallback& progress = {}, RenderCounters* counters = nullptr);
 

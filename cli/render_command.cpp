@@ -34,7 +34,30 @@ struct RenderOptions {
     double timeLimit = 0.0;            // seconds; 0: none
     std::vector<std::string> defines;  // -D name=value
     std::string size;                  // --size WxH
+    std::string crop;                  // --crop x0,y0,x1,y1
 };
+
+// --crop x0,y0,x1,y1: pixels [x0, x1) x [y0, y1) of an image of `size`.
+Tile cropWindow(const std::string& text, const Vector2i& size) {
+    Tile crop;
+    char rest = 0;
+    if (std::sscanf(text.c_str(), "%d,%d,%d,%d%c", &crop.x0, &crop.y0, &crop.x1, &crop.y1, &rest) !=
+        4)
+        fail("--crop %s: expected X0,Y0,X1,Y1 (pixels [X0, X1) x [Y0, Y1), e.g. 0,0,64,32)", text);
+    if (crop.x0 < 0 || crop.y0 < 0 || crop.x0 >= crop.x1 || crop.y0 >= crop.y1 ||
+        crop.x1 > size.x() || crop.y1 > size.y())
+        fail("--crop %s: needs 0 <= X0 < X1 <= %d and 0 <= Y0 < Y1 <= %d (the image is %dx%d)",
+             text, size.x(), size.y(), size.x(), size.y());
+    return crop;
+}
+
+// The film's pixels [x0, x1) x [y0, y1) as an image of the crop's size.
+Image resolveCrop(const FilmBlock& film, const Tile& crop) {
+    FilmBlock shifted(0, 0, crop.width(), crop.height());
+    for (int y = 0; y < crop.height(); ++y)
+        for (int x = 0; x < crop.width(); ++x) shifted.at(x, y) = film.at(crop.x0 + x, crop.y0 + y);
+    return resolveImage(shifted, crop.width(), crop.height());
+}
 
 // -D name=value, --size WxH: the scene as the command line changes it.
 SceneOverrides sceneOverrides(const RenderOptions& options) {
@@ -115,6 +138,8 @@ static int runRender(const RenderOptions& options) {
 
     ProgressLine progress("render", settings.passes);
     const std::optional<RadiusSchedule> radiusSchedule = scene->integrator()->radiusSchedule();
+    const Vector2i size = scene->camera()->outputSize();
+    if (!options.crop.empty()) settings.crop = cropWindow(options.crop, size);
     settings.stop = &g_stop;
     stopOnInterrupt();
     uint32_t passesDone = 0;
@@ -148,8 +173,8 @@ static int runRender(const RenderOptions& options) {
         std::cerr << "warning: " << film.invalidSamples
                   << " samples were NaN, infinite or negative and were left out\n";
 
-    const Vector2i size = scene->camera()->outputSize();
-    Image image = resolveImage(film, size.x(), size.y());
+    Image image =
+        settings.crop ? resolveCrop(film, *settings.crop) : resolveImage(film, size.x(), size.y());
     writeEXR(output, image);
     writePNG(pngPathFor(output), image, options.exposure);
     if (stoppedEarly)
@@ -190,6 +215,9 @@ Command addRenderCommand(CLI::App& app) {
         ->allow_extra_args(false);
     sub->add_option("--size", options->size,
                     "WIDTHxHEIGHT: the image size, replacing the camera's width and height");
+    sub->add_option("--crop", options->crop,
+                    "X0,Y0,X1,Y1: render only pixels [X0, X1) x [Y0, Y1) into an image of that "
+                    "size, the same values as in the whole image");
     sub->add_option("--time-limit", options->timeLimit,
                     "Stop after the pass running when SECONDS have passed and write the image of "
                     "the passes done")

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <functional>
+#include <optional>
 
 namespace alphorn {
 
@@ -18,6 +19,9 @@ struct RenderSettings {
     // holds exactly the passes completed, as a render of that many passes would (Ctrl-C, a time
     // limit).
     const std::atomic<bool>* stop = nullptr;
+    // When set, only the tiles whose samples reach these pixels (through the reconstruction
+    // filter) are rendered: the film's sums over the crop are exactly those of the whole image.
+    std::optional<Tile> crop;
 };
 
 struct RenderStatus {

@@ -110,7 +110,7 @@ void ProgressLine::show(uint64_t done, const std::string& extra, double elapsed,
         int decile = static_cast<int>(fraction * 10.0);
         if (decile == m_lastDecile && now - m_lastPrint < std::chrono::seconds(30)) return;
         m_lastDecile = decile;
-        std::fprintf(stderr, "%s: %llu/%llu %s (%.0f%%), %s elapsed, ETA %s %s\n", m_label.c_str(),
+        std::fprintf(stderr, "%s: %llu/%llu %s (%.0f%%), %s elapsed, ETA %s  %s\n", m_label.c_str(),
                      (unsigned long long)done, (unsigned long long)m_total, m_what.c_str(),
                      100.0 * fraction, formatDuration(elapsed).c_str(), formatDuration(eta).c_str(),
                      extra.c_str());

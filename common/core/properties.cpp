@@ -8,12 +8,18 @@
 namespace alphorn {
 
 std::string closestName(const std::string& word, const std::vector<std::string>& candidates) {
+    // Nobody misspells a name this long; and it keeps a hostile scene from costing
+    // length x length work.
+    if (word.size() > 256) return "";
     const std::string a = absl::AsciiStrToLower(word);
     const size_t allowed = std::max<size_t>(1, a.size() / 3);
     std::string best;
     size_t bestDistance = allowed + 1;
     for (const std::string& candidate : candidates) {
-        if (candidate == word) continue;
+        // The distance is at least the difference in length.
+        if (candidate == word || candidate.size() > a.size() + allowed ||
+            a.size() > candidate.size() + allowed)
+            continue;
         const std::string b = absl::AsciiStrToLower(candidate);
         // Optimal string alignment distance over a (|a|+1) x (|b|+1) table.
         std::vector<std::vector<size_t>> d(a.size() + 1, std::vector<size_t>(b.size() + 1));

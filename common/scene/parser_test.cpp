@@ -157,6 +157,8 @@ TEST(ClosestName, PicksTheNearestWithinOneEditPerThreeLetters) {
     EXPECT_EQ(closestName("weight", names), "height");
     EXPECT_EQ(closestName("fov", names), "");       // a name is not a misspelling of itself
     EXPECT_EQ(closestName("fixxxame", names), "");  // three edits in eight letters: not close
+    // Very long names are not compared (the work grows with the product of the lengths).
+    EXPECT_EQ(closestName(std::string(300, 'a'), {std::string(299, 'a')}), "");
 }
 
 TEST_F(ParserTest, DollarNamesTakeTheirDefinedValues) {

@@ -81,5 +81,31 @@ TEST(SceneFormatDoc, ListsEveryRegisteredTagAndType) {
     EXPECT_GT(registered, 40);
 }
 
+// Every parameter a plugin reads when built from an empty property list (up to the first
+// required one it misses) appears in the document as `name`.
+TEST(SceneFormatDoc, NamesEveryParameterThePluginsRead) {
+    std::ifstream file(ALPHORN_SOURCE_DIR "/docs/scene-format.md");
+    std::stringstream text;
+    text << file.rdbuf();
+    const std::string doc = text.str();
+    int checked = 0;
+    for (ObjectKind kind : kDocumentedKinds)
+        for (const std::string& type : ObjectFactory::typesOf(kind)) {
+            PropertyList props("scene-format test");
+            try {
+                ObjectFactory::create(kind, type, props);
+            } catch (const std::exception&) {
+                // A required parameter is missing: those read before it are still listed.
+            }
+            for (const std::string& name : props.requestedNames()) {
+                ++checked;
+                EXPECT_NE(doc.find("`" + name + "`"), std::string::npos)
+                    << "docs/scene-format.md does not name the parameter `" << name << "` of <"
+                    << kindTag(kind) << " type=\"" << type << "\">";
+            }
+        }
+    EXPECT_GT(checked, 60);
+}
+
 }  // namespace
 }  // namespace alphorn

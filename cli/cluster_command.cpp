@@ -259,7 +259,7 @@ int runCluster(ClusterOptions options) {
             int signal = 0;
             sigwait(&signals, &signal);
             shutdown();
-            std::_Exit(130);
+            std::_Exit(kExitInterrupted);
         }).detach();
         int code = kExitError;
         try {

@@ -6,7 +6,7 @@ set -u
 alphorn=$1
 out=$(mktemp -d)
 cluster=""
-trap '[ -n "$cluster" ] && kill -9 "$cluster" 2>/dev/null; rm -rf "$out" "${root:-/nonexistent}"' EXIT
+trap '[ -n "$cluster" ] && kill -9 "$cluster" 2>/dev/null; [ -n "$cluster" ] && wait "$cluster" 2>/dev/null; rm -rf "$out" "${root:-/nonexistent}"' EXIT
 fail() { echo "FAIL: $*"; cat "$out/cluster.err"; exit 1; }
 
 set -m  # its own process group, and SIGINT not ignored
@@ -33,6 +33,16 @@ kill -0 "$new" 2>/dev/null || fail "the restarted worker (pid $new) is not runni
 tr '\0' ' ' <"/proc/$new/cmdline" | grep -q -- "--name local-1" || fail "pid $new is not worker local-1"
 if [ -e "/proc/$victim" ]; then fail "the killed worker $victim was not reaped (defunct)"; fi
 echo "ok   killed worker local-1 (pid $victim): reported and restarted as pid $new"
+
+# Farm progress counts merged units (plain lines off a terminal), and `workers` has a header.
+export $(grep ALPHORN_ "$out/cluster.out" | xargs)
+timeout 60 "$alphorn" submit "$(dirname "$0")/scenes/ok_normals.xml" --spp 4 --tile 16 --watch \
+  >/dev/null 2>"$out/watch.err" || { cat "$out/watch.err"; fail "submit --watch failed"; }
+grep -q "^job 1: [0-9]*/24 units ([0-9]*%), .* [0-9]*/4 passes" "$out/watch.err" ||
+  { cat "$out/watch.err"; fail "no progress line counting units"; }
+grep -q "^job 1: done, 24/24 units" "$out/watch.err" || { cat "$out/watch.err"; fail "no closing line"; }
+"$alphorn" workers | head -1 | grep -q "^ID    NAME .*STATE" || fail "no header row in workers"
+echo "ok   farm progress counts units; workers has a header row"
 
 kill -INT "$cluster"
 timeout 60 tail --pid="$cluster" -f /dev/null

@@ -77,7 +77,11 @@ expect 0 "" -- "$worker" --help
 pids+=($!)
 for _ in $(seq 200); do [ -s "$work/port" ] && break; sleep 0.05; done
 export ALPHORN_COORDINATOR=127.0.0.1:$(cat "$work/port") ALPHORN_TOKEN_FILE=$work/client.token
+# The tables: "no jobs" and "no workers" rather than nothing, then a header row.
+expect 0 "no jobs" -- "$alphorn" status
+expect 0 "no workers seen recently" -- "$alphorn" workers
 job=$("$alphorn" submit "$scene" --spp 2 2>/dev/null)
+expect 0 "JOB    STATE      NAME" -- "$alphorn" status
 expect 0 "cancelled" -- "$alphorn" cancel "$job"
 expect 3 "cancelled" -- "$alphorn" watch "$job"
 expect 0 "cancelled" -- "$alphorn" status "$job"

@@ -74,8 +74,15 @@ int main(int argc, char** argv) {
     } catch (const CLI::ParseError& e) {
         // --help and --version exit 0. CLI11's own codes (105 to 114 by error class) are not
         // part of Alphorn's contract: every usage error exits 1, as documented.
+        const std::string hints = suggestionsFor(app, argc, argv);
+        if (e.get_exit_code() != 0 &&
+            hints.find("is not an alphorn command") != std::string::npos) {
+            // CLI11 would say "A subcommand is required": the misspelt one is the news.
+            std::cerr << "error: " << hints << "Run with --help for the list of commands.\n";
+            return kExitError;
+        }
         if (app.exit(e) == 0) return kExitOk;
-        std::cerr << suggestionsFor(app, argc, argv);
+        std::cerr << hints;
         return kExitError;
     }
     try {

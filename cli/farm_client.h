@@ -29,6 +29,16 @@ struct FarmConnectionOptions {
     double reconnectSeconds = 60.0;
 };
 
+// The client config file: $XDG_CONFIG_HOME/alphorn/config, else ~/.config/alphorn/config.
+// Lines "coordinator = HOST:PORT", "token-file = PATH", "tls-ca = PATH" (paths relative to the
+// file, or ~/...), "#" comments. Flags and environment variables take precedence.
+struct ClientConfig {
+    std::string coordinator, tokenFile, tlsCa;
+};
+std::string clientConfigPath();
+// Empty when the file does not exist; throws Error naming file and line for a bad line.
+ClientConfig readClientConfig(const std::string& path);
+
 // Adds --coordinator, --token-file, --tls-ca, --reconnect-seconds and --json to a subcommand.
 void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options);
 

@@ -87,5 +87,18 @@ expect 3 "cancelled" -- "$alphorn" watch "$job"
 expect 0 "cancelled" -- "$alphorn" status "$job"
 expect 1 "" -- "$alphorn" watch 999
 
+# The client config file, below the flags and the environment.
+mkdir -p "$work/home/.config/alphorn"
+cp "$work/client.token" "$work/home/.config/alphorn/client.token"
+printf '# test farm\ncoordinator = %s\ntoken-file = client.token\n' "$ALPHORN_COORDINATOR" \
+  >"$work/home/.config/alphorn/config"
+expect 0 "cancelled" -- env -u ALPHORN_COORDINATOR -u ALPHORN_TOKEN_FILE -u XDG_CONFIG_HOME \
+  HOME="$work/home" "$alphorn" status "$job"
+expect 1 "cannot reach the coordinator at 127.0.0.1:1" -- env -u XDG_CONFIG_HOME HOME="$work/home" \
+  ALPHORN_COORDINATOR=127.0.0.1:1 "$alphorn" status --reconnect-seconds 0
+printf 'coordinater = 127.0.0.1:1\n' >>"$work/home/.config/alphorn/config"
+expect 1 "alphorn/config:4: unknown key \"coordinater\"; did you mean \"coordinator\"?" -- \
+  env -u XDG_CONFIG_HOME HOME="$work/home" "$alphorn" status
+
 if [ "$failures" -ne 0 ]; then echo "FAIL: $failures exit code checks failed"; exit 1; fi
 echo "OK: every error class exits with its documented code"

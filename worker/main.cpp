@@ -34,7 +34,9 @@ int main(int argc, char** argv) {
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        // Help and version exit 0; usage errors exit 1 like every other error (not CLI11's
+        // 105-114), as documented.
+        return app.exit(e) == 0 ? 0 : 1;
     }
     options.cacheBytes = static_cast<uint64_t>(cacheGiB * double(uint64_t(1) << 30));
 

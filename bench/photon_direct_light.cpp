@@ -95,6 +95,19 @@ double rmse(const std::vector<double>& a, const std::vector<double>& b) {
     return std::sqrt(sum / double(a.size()));
 }
 
+// The caustic and the sphere's shadow in scenes/caustic/caustic.xml (bench/caustic_convergence's
+// crop): where next-event estimation must leave the light focused by the glass to the photons.
+const Tile kCausticCrop{224, 160, 352, 256};
+
+// The mean of the crop's pixel values in an image `width` pixels wide (RGB).
+double cropMean(const std::vector<double>& rgb, int width, const Tile& crop) {
+    double sum = 0.0;
+    for (int y = crop.y0; y < crop.y1; ++y)
+        for (int x = crop.x0; x < crop.x1; ++x)
+            for (int c = 0; c < 3; ++c) sum += rgb[3 * (size_t(y) * width + x) + c];
+    return sum / (3.0 * crop.width() * crop.height());
+}
+
 void runScene(const std::string& path, uint32_t passes, uint32_t referencePasses) {
     auto photons = loadWithDirectLight(path, "photons");
     auto nee = loadWithDirectLight(path, "nee");
@@ -125,6 +138,17 @@ void runScene(const std::string& path, uint32_t passes, uint32_t referencePasses
             "  %5u passes  photons %8.2f s RMS %.5f   nee %8.2f s RMS %.5f   efficiency nee / "
             "photons %.2f\n",
             pass + 1, a.seconds, ea, b.seconds, eb, (ea * ea * a.seconds) / (eb * eb * b.seconds));
+    }
+    if (path.ends_with("caustic.xml")) {
+        const int width = a.tile.x1;
+        std::printf(
+            "  caustic crop (%d,%d)-(%d,%d) mean: reference %.5f, photons %.5f, nee %.5f (the "
+            "two references %.5f and %.5f)\n",
+            kCausticCrop.x0, kCausticCrop.y0, kCausticCrop.x1, kCausticCrop.y1,
+            cropMean(reference, width, kCausticCrop), cropMean(a.image(), width, kCausticCrop),
+            cropMean(b.image(), width, kCausticCrop),
+            cropMean(refPhotons.image(), width, kCausticCrop),
+            cropMean(other, width, kCausticCrop));
     }
     const double wall = a.seconds + b.seconds;
     std::printf("  timed runs: wall %.1f s, CPU %.1f s (CPU / wall %.2f)\n", wall,

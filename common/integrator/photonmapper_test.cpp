@@ -210,7 +210,9 @@ std::string pointLightUnderMirror() {
            "quad.obj\"/><transform name=\"toWorld\"><scale value=\"0.1,1,0.1\"/><rotate "
            "axis=\"1,0,0\" angle=\"180\"/><translate value=\"0,2,0\"/></transform><bsdf "
            "type=\"mirror\"/></mesh>"
-           "<emitter type=\"point\"><point name=\"position\" value=\"0,1,0\"/></emitter>";
+           "<emitter type=\"point\"><point name=\"position\" value=\"0,1,0\"/><color "
+           "name=\"power\" "
+           "value=\"12.566370614359172\"/></emitter>";
 }
 
 TEST_F(PhotonMapperTest, SampledDirectLightLeavesOnlyDirectPhotonsOut) {
@@ -246,9 +248,10 @@ TEST_F(PhotonMapperTest, SampledDirectLightLeavesOnlyDirectPhotonsOut) {
 // the k-th neighbour lies at R² ≈ 0.3 h², and the disk average there is some 19% below the peak.
 // Averaging passes of that fixed-k estimate (independent photon maps: one seed per pass, without
 // `progressive`) converges to the biased value, so its error plateaus; the progressive estimate's
-// blur shrinks with the radii, and its error keeps falling. Error over 24 seeds at 16 and 1024
+// blur shrinks with the radii, and its error keeps falling. RMS error over 24 seeds at 16 and 1024
 // passes, relative to the true value. Expected from the kNN estimate's variance 1/(k − 2) and the
-// schedule: fixed k about 0.2 at both, progressive about 0.15, then 0.04.
+// schedule: fixed k about 0.2 at both, progressive about 0.15, then 0.04 (measured: 0.23 -> 0.22
+// and 0.16 -> 0.04).
 TEST_F(PhotonMapperTest, ProgressiveNearestNeighboursConvergeWhereAFixedKAveragePlateaus) {
     const std::string plane =
         "<camera type=\"perspective\"><transform name=\"toWorld\"><lookat origin=\"0,0.6,0.8\" "
@@ -258,7 +261,8 @@ TEST_F(PhotonMapperTest, ProgressiveNearestNeighboursConvergeWhereAFixedKAverage
         kMeshes +
         "quad.obj\"/><transform name=\"toWorld\"><scale value=\"20,1,20\"/></transform>"
         "<bsdf type=\"diffuse\"><color name=\"albedo\" value=\"0.5\"/></bsdf></mesh>"
-        "<emitter type=\"point\"><point name=\"position\" value=\"0,1,0\"/></emitter>";
+        "<emitter type=\"point\"><point name=\"position\" value=\"0,1,0\"/><color name=\"power\" "
+        "value=\"12.566370614359172\"/></emitter>";
     const std::string params = integer("photonCount", 200) + integer("surfaceK", 16) +
                                floating("surfacePhotonRadius", "2");
     auto fixedK = load(params, plane);
@@ -300,13 +304,18 @@ TEST_F(PhotonMapperTest, ProgressiveNearestNeighboursConvergeWhereAFixedKAverage
     EXPECT_GT(fixedL, 0.05) << "the fixed-k bias is too small for the test to resolve";
     EXPECT_LT(progL, 0.6 * progE) << "progressive kNN error stopped falling";
     EXPECT_LT(progL, 0.6 * fixedL) << "progressive kNN no better than a fixed-k average";
-    // The progressive average is unbiased within noise: t-test of its seeds' means.
-    const stats::MeanVariance mv = stats::meanAndVariance(progLate.data(), progLate.size());
-    const stats::TTestResult t = stats::studentTTest(mv.mean, mv.variance, truth, kSeeds, 0.01);
-    EXPECT_TRUE(t.passed) << t.message;
+    // The fixed-k average is measurably biased (t-test of the seeds' means against the truth);
+    // the progressive one keeps a bias too, that of its finite radii (it falls as N^(-1/2) for
+    // alpha 0.5: about 3% here after 1024 passes), but far smaller.
     const stats::MeanVariance fixedMv = stats::meanAndVariance(fixedLate.data(), fixedLate.size());
-    EXPECT_FALSE(stats::studentTTest(fixedMv.mean, fixedMv.variance, truth, kSeeds, 0.01).passed)
-        << "the fixed-k average should be measurably biased";
+    const stats::TTestResult fixedT =
+        stats::studentTTest(fixedMv.mean, fixedMv.variance, truth, kSeeds, 0.01);
+    EXPECT_FALSE(fixedT.passed) << "the fixed-k average should be measurably biased: "
+                                << fixedT.message;
+    const stats::MeanVariance progMv = stats::meanAndVariance(progLate.data(), progLate.size());
+    EXPECT_LT(std::abs(progMv.mean - truth), 0.25 * std::abs(fixedMv.mean - truth))
+        << "progressive mean " << progMv.mean << ", fixed-k mean " << fixedMv.mean << ", truth "
+        << truth;
 }
 
 }  // namespace

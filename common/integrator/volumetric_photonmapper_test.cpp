@@ -130,7 +130,7 @@ TEST_F(VolumetricPhotonMapperTest, ProgressiveKnnRadiiShrinkByTheSchedule) {
     for (uint64_t pass : {0, 3, 100}) {
         const auto owner = integrator.preparePass(*progressive, 4, pass);
         const PhotonPassData& data = passData(owner);
-        const float scale = static_cast<float>(progressiveRadius(1.0, 0.7, pass));
+        const float scale = static_cast<float>(progressiveRadius(1.0, 0.7f, pass));
         EXPECT_EQ(data.surfaceRadius, 0.5f);
         EXPECT_EQ(data.surfaceRadiusScale, scale);
         // The same photons indexed without the schedule.

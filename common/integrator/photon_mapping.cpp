@@ -63,7 +63,8 @@ std::shared_ptr<const PassData> PhotonMappingIntegrator::preparePass(const Scene
 }
 
 std::optional<RadiusSchedule> PhotonMappingIntegrator::radiusSchedule() const {
-    if (!m_progressive) return std::nullopt;
+    // Progress lines show the surface gather radius; kNN radii have no one value to show.
+    if (!m_progressive || m_surfaceK > 0) return std::nullopt;
     return RadiusSchedule{m_surfaceRadius, m_alpha};
 }
 

@@ -127,6 +127,7 @@ TEST_F(VolumetricPhotonMapperTest, ProgressiveKnnRadiiShrinkByTheSchedule) {
                                floating("surfacePhotonRadius", "0.5") + floating("alpha", "0.7");
     auto progressive = load(params + kProgressive, furnace(kFog));
     const Integrator& integrator = *progressive->integrator();
+    EXPECT_FALSE(integrator.radiusSchedule().has_value()) << "kNN radii have no one value";
     for (uint64_t pass : {0, 3, 100}) {
         const auto owner = integrator.preparePass(*progressive, 4, pass);
         const PhotonPassData& data = passData(owner);

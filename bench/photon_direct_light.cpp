@@ -158,6 +158,7 @@ void runScene(const std::string& path, uint32_t passes, uint32_t referencePasses
 }  // namespace
 
 int main(int argc, char** argv) {
+    std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines while it runs (it runs long)
     const uint32_t passes = argc > 1 ? uint32_t(std::stoul(argv[1])) : 64;
     const uint32_t referencePasses = argc > 2 ? uint32_t(std::stoul(argv[2])) : 512;
     std::vector<std::string> scenes;

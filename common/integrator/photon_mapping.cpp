@@ -6,7 +6,8 @@
 
 namespace alphorn {
 
-PhotonMappingIntegrator::PhotonMappingIntegrator(const PropertyList& props) {
+PhotonMappingIntegrator::PhotonMappingIntegrator(const PropertyList& props,
+                                                 const char* defaultDirectLight) {
     // Nori's default photon count; photon paths EMITTED per photon pass (see docs).
     const int count = props.getInteger("photonCount", 1000000);
     if (count <= 0)
@@ -26,7 +27,7 @@ PhotonMappingIntegrator::PhotonMappingIntegrator(const PropertyList& props) {
         props.fail("\"alpha\" must be in (0, 1) (the fraction of photons kept per pass), got %g",
                    alpha);
     m_alpha = alpha;
-    const std::string directLight = props.getString("directLight", "photons");
+    const std::string directLight = props.getString("directLight", defaultDirectLight);
     if (directLight != "photons" && directLight != "nee")
         props.fail("\"directLight\" must be \"photons\" or \"nee\", got \"%s\"", directLight);
     m_sampleDirectLight = directLight == "nee";

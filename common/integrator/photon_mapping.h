@@ -28,7 +28,9 @@ class PhotonMappingIntegrator : public Integrator {
     std::optional<RadiusSchedule> radiusSchedule() const override;
 
   protected:
-    explicit PhotonMappingIntegrator(const PropertyList& props);
+    // `defaultDirectLight`: the `directLight` mode when the scene gives none ("nee" or
+    // "photons").
+    PhotonMappingIntegrator(const PropertyList& props, const char* defaultDirectLight);
 
     // Traces the photons of `pass` (pass 0 for the one map of non-progressive mode) and builds
     // its maps; must be a pure function of (scene, seed, pass).

@@ -10,7 +10,8 @@
 // by one of two means (`directLight`):
 //   "photons": photons carry all of it, so the image is the photon estimate plus the emitters
 //       seen directly or through delta surfaces;
-//   "nee": the first non-delta hit samples one light (next-event estimation, sampleDirect() of
+//   "nee" (the default): the first non-delta hit samples one light (next-event estimation,
+//   sampleDirect() of
 //       the path tracers, without MIS: the path ends there, so no BSDF sample could find the
 //       light), and the photon tracer skips each path's photon of light that reached a surface
 //       without scattering on the way. Light → mirror/glass → diffuse paths (caustics) still
@@ -37,7 +38,9 @@ namespace alphorn {
 
 class PhotonMapper : public PhotonMappingIntegrator {
   public:
-    explicit PhotonMapper(const PropertyList& props) : PhotonMappingIntegrator(props) {}
+    // Next-event estimation by default: at equal time it measured ahead of photon-carried direct
+    // light on the Cornell box and the caustic (bench/photon_direct_light.cpp, bench/RESULTS.md).
+    explicit PhotonMapper(const PropertyList& props) : PhotonMappingIntegrator(props, "nee") {}
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
                const PassData* passData) const override {

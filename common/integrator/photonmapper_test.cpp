@@ -116,9 +116,11 @@ TEST_F(PhotonMapperTest, FewerPhotonsThanKUseTheSearchRadius) {
     // ~40 photons in the whole furnace and k = 50: every kNN query finds fewer than k photons
     // within its search radius 0.5, so it must equal the fixed-radius estimate at 0.5 (same
     // seed, same photons) -- finite, and not inflated by a disk shrunk to the photons found.
+    // Photons carry the direct light, so that a ray is lit above 1 only by photons.
     auto knn = load(integer("photonCount", 20) + integer("surfaceK", 50) +
-                    floating("surfacePhotonRadius", "0.5"));
-    auto fixed = load(integer("photonCount", 20) + floating("surfacePhotonRadius", "0.5"));
+                    floating("surfacePhotonRadius", "0.5") + kDirectFromPhotons);
+    auto fixed = load(integer("photonCount", 20) + floating("surfacePhotonRadius", "0.5") +
+                      kDirectFromPhotons);
     const auto knnPass = knn->integrator()->preparePass(*knn, 2, 0);
     const auto fixedPass = fixed->integrator()->preparePass(*fixed, 2, 0);
     ASSERT_LT(passData(knnPass).surface.size(), 50u);
@@ -150,8 +152,9 @@ class ProgressiveConvergence : public PhotonMapperTest,
 
 TEST_P(ProgressiveConvergence, NoiseFallsAsTheScheduleDictates) {
     const auto [alpha, expectedSlope] = GetParam();
+    // Photons only: a light sample's noise would not shrink with the radius.
     auto scene = load(integer("photonCount", 50) + floating("surfacePhotonRadius", "0.7") +
-                      floating("alpha", alpha) + kProgressive);
+                      floating("alpha", alpha) + kProgressive + kDirectFromPhotons);
     constexpr int kSeeds = 64, kPasses = 1024, kEarly = 16;
     std::vector<double> early(kSeeds), late(kSeeds);
     const Ray3f ray(Point3f::Zero(), Vector3f(1.0f, 0.0f, 0.0f));
@@ -218,9 +221,8 @@ std::string pointLightUnderMirror() {
 TEST_F(PhotonMapperTest, SampledDirectLightLeavesOnlyDirectPhotonsOut) {
     const std::string params =
         integer("photonCount", 40000) + floating("surfacePhotonRadius", "0.1");
-    const std::string nee = "<string name=\"directLight\" value=\"nee\"/>";
-    auto all = load(params, pointLightUnderMirror());
-    auto indirect = load(params + nee, pointLightUnderMirror());
+    auto all = load(params + kDirectFromPhotons, pointLightUnderMirror());
+    auto indirect = load(params, pointLightUnderMirror());  // "nee", the default
     const auto allPass = all->integrator()->preparePass(*all, 5, 0);
     const auto indirectPass = indirect->integrator()->preparePass(*indirect, 5, 0);
     const std::vector<Photon>& full = passData(allPass).surface.photons();
@@ -267,8 +269,9 @@ TEST_F(KnnProgressiveConvergence, ErrorKeepsFallingWhereAFixedKAveragePlateaus) 
         "<bsdf type=\"diffuse\"><color name=\"albedo\" value=\"0.5\"/></bsdf></mesh>"
         "<emitter type=\"point\"><point name=\"position\" value=\"0,1,0\"/><color name=\"power\" "
         "value=\"12.566370614359172\"/></emitter>";
+    // Photons carry the direct light, the whole of the light at the foot.
     const std::string params = integer("photonCount", 200) + integer("surfaceK", 16) +
-                               floating("surfacePhotonRadius", "2");
+                               floating("surfacePhotonRadius", "2") + kDirectFromPhotons;
     auto fixedK = load(params, plane);
     auto progressive = load(params + kProgressive, plane);
     const double truth = 0.5 / M_PI;

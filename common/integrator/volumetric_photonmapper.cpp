@@ -61,7 +61,10 @@ namespace alphorn {
 
 class VolumetricPhotonMapper : public PhotonMappingIntegrator {
   public:
-    explicit VolumetricPhotonMapper(const PropertyList& props) : PhotonMappingIntegrator(props) {
+    // Direct light from photons by default: next-event estimation at surfaces has not been
+    // measured against it in media yet.
+    explicit VolumetricPhotonMapper(const PropertyList& props)
+        : PhotonMappingIntegrator(props, "photons") {
         m_surfaceCount = photonCount(props, "surfacePhotonCount", m_photonCount);
         m_volumeCount = photonCount(props, "volumePhotonCount", m_photonCount);
         m_volumeRadiusGiven = props.has("volumePhotonRadius");

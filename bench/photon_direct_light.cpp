@@ -12,6 +12,10 @@
 // converge to the same limit as the radius shrinks, and averaging them favours neither. Its own
 // noise adds the same amount to both variants' MSE, so it can only pull the ratio towards 1.
 //
+// With referencePasses = 0 it only times the two variants (wall and process CPU time per variant):
+// the errors are a pure function of the seed, so a timing run on a quieter machine completes an
+// earlier run's figures.
+//
 // usage: bench_photon_direct_light [passes=64] [referencePasses=512] [scene.xml ...]
 #include "common/render/image_io.h"
 #include "common/render/unit.h"
@@ -69,7 +73,7 @@ struct Progressive {
     const Scene* scene;
     Tile tile;
     FilmBlock block;
-    double seconds = 0.0;
+    double seconds = 0.0, cpu = 0.0;  // wall and process CPU time of this variant's passes
 
     Progressive(const Scene& s)
         : scene(&s),
@@ -78,9 +82,11 @@ struct Progressive {
 
     void renderPass(uint64_t seed, uint32_t pass) {
         const auto start = std::chrono::steady_clock::now();
+        const double cpuStart = cpuSeconds();
         const auto data = preparePasses(*scene, seed, pass, pass + 1);
         renderUnit(*scene, seed, RenderUnit{pass, pass + 1, tile}, data, block);
         seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        cpu += cpuSeconds() - cpuStart;
     }
 
     std::vector<double> image() const {
@@ -114,6 +120,19 @@ void runScene(const std::string& path, uint32_t passes, uint32_t referencePasses
     std::printf("%s: %dx%d, %s\n", path.c_str(), photons->camera()->outputSize().x(),
                 photons->camera()->outputSize().y(), photons->integrator()->toString().c_str());
 
+    if (referencePasses == 0) {  // timing only: the errors are a pure function of the seed
+        Progressive a(*photons), b(*nee);
+        for (uint32_t pass = 0; pass < passes; ++pass) {
+            a.renderPass(1, pass);
+            b.renderPass(1, pass);
+            if (((pass + 1) & pass) != 0) continue;
+            std::printf(
+                "  %5u passes  photons %8.2f s wall %8.2f s CPU   nee %8.2f s wall %8.2f s CPU   "
+                "time nee / photons: wall %.3f, CPU %.3f\n",
+                pass + 1, a.seconds, a.cpu, b.seconds, b.cpu, b.seconds / a.seconds, b.cpu / a.cpu);
+        }
+        return;
+    }
     Progressive refPhotons(*photons), refNee(*nee);
     for (uint32_t pass = 0; pass < referencePasses; ++pass) {
         refPhotons.renderPass(1000, pass);
@@ -135,9 +154,10 @@ void runScene(const std::string& path, uint32_t passes, uint32_t referencePasses
         if (((pass + 1) & pass) != 0) continue;
         const double ea = rmse(a.image(), reference), eb = rmse(b.image(), reference);
         std::printf(
-            "  %5u passes  photons %8.2f s RMS %.5f   nee %8.2f s RMS %.5f   efficiency nee / "
-            "photons %.2f\n",
-            pass + 1, a.seconds, ea, b.seconds, eb, (ea * ea * a.seconds) / (eb * eb * b.seconds));
+            "  %5u passes  photons %8.2f s (CPU %.2f s) RMS %.5f   nee %8.2f s (CPU %.2f s) RMS "
+            "%.5f   efficiency nee / photons: wall %.2f, CPU %.2f\n",
+            pass + 1, a.seconds, a.cpu, ea, b.seconds, b.cpu, eb,
+            (ea * ea * a.seconds) / (eb * eb * b.seconds), (ea * ea * a.cpu) / (eb * eb * b.cpu));
     }
     if (path.ends_with("caustic.xml")) {
         const int width = a.tile.x1;

@@ -8,18 +8,16 @@
 // first non-delta hit, where the reflected radiance is the photon density estimate, and
 // emission is added wherever the path hits an emitter. Direct light is counted exactly once,
 // by one of two means (`directLight`):
-//   "photons": photons carry all of it, so the image is the photon estimate plus the emitters
-//       seen directly or through delta surfaces;
-//   "nee" (the default): the first non-delta hit samples one light (next-event estimation,
-//   sampleDirect() of
-//       the path tracers, without MIS: the path ends there, so no BSDF sample could find the
-//       light), and the photon tracer skips each path's photon of light that reached a surface
-//       without scattering on the way. Light → mirror/glass → diffuse paths (caustics) still
-//       come from photons; a null surface between light and point blocks the shadow ray and
-//       counts as a scattering event for the photon, so those paths also stay with the photons.
-//   Sampling is the better estimator where the direct light varies fast (shadow and light
-//   edges, which a density estimate blurs) or where few photons land; the photons then carry
-//   only the smoother indirect light.
+// - "photons": photons carry all of it, so the image is the photon estimate plus the emitters
+//   seen directly or through delta surfaces;
+// - "nee" (the default): the first non-delta hit samples one light (next-event estimation,
+//   sampleDirect() of the path tracers, without MIS: the path ends there, so no BSDF sample
+//   could find the light), and the photon tracer skips each path's photon of light that reached
+//   a surface without scattering on the way. Light → mirror/glass → diffuse paths (caustics)
+//   still come from photons; a null surface between light and point blocks the shadow ray and
+//   counts as a scattering event for the photon, so those paths also stay with the photons.
+//   Fewer photons are stored (none of direct light), which makes a pass cheaper, and the
+//   direct light's edges are sampled sharply where a density estimate blurs them.
 //
 // Passes: without `progressive`, every pass reads one photon map, traced once per (scene, seed)
 // from pass 0's photon streams, with a fixed radius or k nearest neighbours; more passes

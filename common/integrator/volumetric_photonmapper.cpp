@@ -61,8 +61,8 @@ namespace alphorn {
 
 class VolumetricPhotonMapper : public PhotonMappingIntegrator {
   public:
-    // Direct light from photons by default: next-event estimation at surfaces has not been
-    // measured against it in media yet.
+    // Direct light from photons by default: next-event estimation at surfaces measured ahead in
+    // one media scene so far (bench/RESULTS.md), too few to change what every scene renders.
     explicit VolumetricPhotonMapper(const PropertyList& props)
         : PhotonMappingIntegrator(props, "photons") {
         m_surfaceCount = photonCount(props, "surfacePhotonCount", m_photonCount);

@@ -705,8 +705,9 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
     {
         std::lock_guard lock(m_mutex);
         if (!touchWorkerLocked(header.worker_id()))
-            throw FarmError(Kind::UnknownWorker, absl::StrFormat("unknown worker %u: register again",
-                                                            header.worker_id()));
+            throw FarmError(
+                Kind::UnknownWorker,
+                absl::StrFormat("unknown worker %u: register again", header.worker_id()));
         Job& job = jobLocked(jobId);
         if (unitIndex >= job.grid.unitCount())
             throw FarmError(Kind::InvalidArgument,

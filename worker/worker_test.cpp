@@ -560,5 +560,22 @@ TEST_F(WorkerTest, SceneThatFailsToLoadIsReportedForItsUnit) {
     EXPECT_EQ(deliveredFilm(m_fake.reportsFor(92).at(0)), expectedFilm(good, 0));
 }
 
+TEST_F(WorkerTest, BundleWhoseBlobIsMissingIsReportedForItsUnit) {
+    m_server.start();
+    TestJob missing = makeGoodJob(11);
+    const std::string absent = farm::sha256Hex("never uploaded");
+    missing.description.mutable_bundle()->mutable_files(1)->set_sha256(absent);
+    const TestJob good = makeGoodJob(12);
+    m_fake.queueLease(lease(missing, 111, 0));
+    m_fake.queueLease(lease(good, 112, 0));
+    startWorker();
+    ASSERT_TRUE(waitForAccepted(112));
+    stopWorker();
+    const std::vector<Report> failed = m_fake.reportsFor(111);
+    ASSERT_EQ(failed.size(), 1u);
+    EXPECT_NE(failed[0].header.error().find(absent), std::string::npos) << failed[0].header.error();
+    EXPECT_EQ(deliveredFilm(m_fake.reportsFor(112).at(0)), expectedFilm(good, 0));
+}
+
 }  // namespace
 }  // namespace alphorn::worker

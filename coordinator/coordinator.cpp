@@ -591,7 +591,7 @@ v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId,
     v1::AcquireWorkResponse response;
     for (;;) {
         if (!touchWorkerLocked(workerId))
-            throw FarmError(Kind::NotFound,
+            throw FarmError(Kind::UnknownWorker,
                             absl::StrFormat("unknown worker %u: register again", workerId));
         if (m_stopping) return response;
         if (const auto lease = m_scheduler->lease(workerId)) {
@@ -705,8 +705,9 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
     {
         std::lock_guard lock(m_mutex);
         if (!touchWorkerLocked(header.worker_id()))
-            throw FarmError(Kind::NotFound, absl::StrFormat("unknown worker %u: register again",
-                                                            header.worker_id()));
+            throw FarmError(
+                Kind::UnknownWorker,
+                absl::StrFormat("unknown worker %u: register again", header.worker_id()));
         Job& job = jobLocked(jobId);
         if (unitIndex >= job.grid.unitCount())
             throw FarmError(Kind::InvalidArgument,

@@ -95,7 +95,8 @@ class Coordinator {
 
     // Worker side.
     uint64_t registerWorker(const v1::RegisterRequest& request);
-    // Leases the next unit, waiting until `until` for one. Throws NotFound for an unknown worker.
+    // Leases the next unit, waiting until `until` for one. Throws UnknownWorker for an unknown
+    // worker.
     v1::AcquireWorkResponse acquire(uint64_t workerId, std::chrono::steady_clock::time_point until);
     v1::HeartbeatResponse heartbeat(const v1::HeartbeatRequest& request);
     // `header` is the first chunk of the stream, `compressedFilm` all data concatenated.

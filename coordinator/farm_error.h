@@ -7,7 +7,14 @@ namespace alphorn::coordinator {
 
 class FarmError : public Error {
   public:
-    enum class Kind { InvalidArgument, NotFound, FailedPrecondition, ResourceExhausted };
+    // UnknownWorker: a worker id the coordinator does not know (the worker registers again).
+    enum class Kind {
+        InvalidArgument,
+        NotFound,
+        FailedPrecondition,
+        ResourceExhausted,
+        UnknownWorker
+    };
     FarmError(Kind kind, const std::string& message) : Error(message), kind(kind) {}
     Kind kind;
 };

@@ -18,9 +18,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
+#include <mutex>
 #include <thread>
 
 namespace alphorn::cli {
@@ -90,6 +93,89 @@ void stopProcesses(const std::vector<pid_t>& pids) {
     }
 }
 
+// The workers of a cluster: started, watched, restarted when one dies, stopped at the end.
+class WorkerPool {
+  public:
+    WorkerPool(std::vector<std::string> arguments, std::string root, int count)
+        : m_arguments(std::move(arguments)), m_root(std::move(root)) {
+        for (int i = 0; i < count; ++i) m_workers.push_back({i, start(i), 0});
+    }
+
+    // Reaps workers that exited (so none stays <defunct>), says so on stderr and starts them
+    // again, unless one keeps dying (kMaxRestarts): then it is reported and left stopped.
+    void restartDead() {
+        std::lock_guard lock(m_mutex);
+        if (m_stopping) return;
+        for (Worker& worker : m_workers) {
+            if (worker.pid <= 0) continue;
+            int status = 0;
+            if (::waitpid(worker.pid, &status, WNOHANG) != worker.pid) continue;
+            const std::string how =
+                WIFSIGNALED(status) ? absl::StrFormat("was killed by signal %d (%s)",
+                                                      WTERMSIG(status), strsignal(WTERMSIG(status)))
+                                    : absl::StrFormat("exited with code %d", WEXITSTATUS(status));
+            const std::string log = logPath(worker.index);
+            if (++worker.restarts > kMaxRestarts) {
+                std::cerr << absl::StrFormat(
+                    "cluster: worker local-%d (pid %d) %s; it died %d times, not restarting it "
+                    "(log: %s)\n",
+                    worker.index, worker.pid, how, worker.restarts, log);
+                worker.pid = -1;
+                continue;
+            }
+            const pid_t previous = worker.pid;
+            worker.pid = start(worker.index);
+            std::cerr << absl::StrFormat(
+                "cluster: worker local-%d (pid %d) %s; restarted it as pid %d (log: %s)\n",
+                worker.index, previous, how, worker.pid, log);
+        }
+    }
+
+    void stop() {
+        std::vector<pid_t> pids;
+        {
+            std::lock_guard lock(m_mutex);
+            m_stopping = true;
+            for (const Worker& worker : m_workers)
+                if (worker.pid > 0) pids.push_back(worker.pid);
+        }
+        stopProcesses(pids);
+    }
+
+  private:
+    static constexpr int kMaxRestarts = 10;
+    struct Worker {
+        int index;
+        pid_t pid;
+        int restarts;
+    };
+    std::string logPath(int index) const {
+        return absl::StrFormat("%s/worker-%d.log", m_root, index);
+    }
+    pid_t start(int index) const {
+        std::vector<std::string> arguments = m_arguments;
+        for (const std::string& argument :
+             {std::string("--cache-dir"), absl::StrFormat("%s/worker-%d", m_root, index),
+              std::string("--name"), absl::StrFormat("local-%d", index)})
+            arguments.push_back(argument);
+        return spawn(arguments, logPath(index));
+    }
+
+    std::vector<std::string> m_arguments;
+    std::string m_root;
+    std::mutex m_mutex;
+    std::vector<Worker> m_workers;
+    bool m_stopping = false;
+};
+
+// The logs stay where the cluster said they are; the state, tokens and worker caches of a
+// temporary directory go (all of it with --keep stays).
+void removeAllButLogs(const std::string& root) {
+    std::error_code ignored;
+    for (const fs::directory_entry& entry : fs::directory_iterator(root, ignored))
+        if (entry.path().extension() != ".log") fs::remove_all(entry.path(), ignored);
+}
+
 int runCluster(ClusterOptions options) {
     sigset_t signals;
     sigemptyset(&signals);
@@ -114,18 +200,20 @@ int runCluster(ClusterOptions options) {
     const std::string portFile = root + "/coordinator.port";
     fs::remove(portFile);
 
-    std::vector<pid_t> workers;
+    std::unique_ptr<WorkerPool> workers;
     pid_t coordinator = spawn({findExecutable("alphorn-coordinator"), "--listen", "127.0.0.1:0",
                                "--state-dir", root + "/state", "--client-token-file", clientToken,
                                "--worker-token-file", workerToken, "--port-file", portFile},
                               root + "/coordinator.log");
+    std::atomic<bool> stopped{false};
+    std::mutex shutdownMutex;
     auto shutdown = [&] {
-        stopProcesses(workers);
+        std::lock_guard lock(shutdownMutex);
+        if (stopped.exchange(true)) return;
+        if (workers) workers->stop();
         stopProcesses({coordinator});
-        if (temporary && !options.keep) {
-            std::error_code ignored;
-            fs::remove_all(root, ignored);
-        }
+        if (temporary && !options.keep) removeAllButLogs(root);
+        std::cerr << "cluster: logs kept in " << root << "\n";
     };
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
     while (!fs::exists(portFile)) {
@@ -142,16 +230,28 @@ int runCluster(ClusterOptions options) {
     const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     const int threads =
         options.threads > 0 ? options.threads : std::max(1, cores / options.workers);
-    const std::string workerBinary = findExecutable("alphorn-worker");
-    for (int i = 0; i < options.workers; ++i)
-        workers.push_back(
-            spawn({workerBinary, "--coordinator", address, "--token-file", workerToken,
-                   "--cache-dir", absl::StrFormat("%s/worker-%d", root, i), "--threads",
-                   std::to_string(threads), "--name", absl::StrFormat("local-%d", i)},
-                  absl::StrFormat("%s/worker-%d.log", root, i)));
+    workers = std::make_unique<WorkerPool>(
+        std::vector<std::string>{findExecutable("alphorn-worker"), "--coordinator", address,
+                                 "--token-file", workerToken, "--threads", std::to_string(threads)},
+        root, options.workers);
     std::cerr << absl::StrFormat(
-        "cluster: coordinator on %s, %d workers x %d threads; logs in %s\n", address,
-        options.workers, threads, root);
+        "cluster: coordinator on %s, %d workers x %d threads; logs in %s (kept on exit%s)\n",
+        address, options.workers, threads, root,
+        temporary && !options.keep ? "; the state and caches are removed, --keep keeps them" : "");
+    // Restarts a worker that dies (a crash, the OOM killer, a stray kill) and says so.
+    std::thread watchdog([&] {
+        while (!stopped.load()) {
+            workers->restartDead();
+            std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        }
+    });
+    struct AtExit {
+        std::function<void()> run;
+        ~AtExit() { run(); }
+    } stopAtExit{[&] {
+        shutdown();
+        watchdog.join();
+    }};
 
     if (!options.submit.scene.empty()) {
         // Stop the farm if the user interrupts the render.
@@ -159,7 +259,7 @@ int runCluster(ClusterOptions options) {
             int signal = 0;
             sigwait(&signals, &signal);
             shutdown();
-            std::_Exit(130);
+            std::_Exit(kExitInterrupted);
         }).detach();
         int code = kExitError;
         try {

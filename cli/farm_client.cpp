@@ -2,11 +2,14 @@
 
 #include "cli/progress.h"
 #include "common/core/error.h"
+#include "common/core/properties.h"
 #include "common/farm/bundle.h"
 #include "common/farm/convert.h"
 #include "common/farm/rpc.h"
 #include "common/render/image_io.h"
 
+#include <absl/strings/ascii.h>
+#include <absl/strings/match.h>
 #include <absl/strings/str_format.h>
 #include <google/protobuf/util/json_util.h>
 
@@ -29,11 +32,12 @@ static std::string fromEnvironment(const char* name) {
 
 void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options) {
     sub->add_option("--coordinator", options.coordinator,
-                    "Coordinator address host:port (or $ALPHORN_COORDINATOR)");
+                    "Coordinator address host:port (or $ALPHORN_COORDINATOR, or the config file)");
     sub->add_option("--token-file", options.tokenFile,
-                    "Client token file (or $ALPHORN_TOKEN_FILE)");
-    sub->add_option("--tls-ca", options.tlsCa,
-                    "CA certificate to verify a TLS coordinator (or $ALPHORN_TLS_CA)");
+                    "Client token file (or $ALPHORN_TOKEN_FILE, or the config file)");
+    sub->add_option(
+        "--tls-ca", options.tlsCa,
+        "CA certificate to verify a TLS coordinator (or $ALPHORN_TLS_CA, or the config file)");
     sub->add_option("--reconnect-seconds", options.reconnectSeconds,
                     "How long to wait for an unreachable or restarting coordinator before giving "
                     "up")
@@ -77,15 +81,72 @@ bool coordinatorWentAway(const grpc::Status& status) {
 
 }  // namespace
 
+std::string clientConfigPath() {
+    const std::string configHome = fromEnvironment("XDG_CONFIG_HOME");
+    if (!configHome.empty()) return configHome + "/alphorn/config";
+    const std::string home = fromEnvironment("HOME");
+    return home.empty() ? "" : home + "/.config/alphorn/config";
+}
+
+ClientConfig readClientConfig(const std::string& path) {
+    ClientConfig config;
+    std::ifstream file(path);
+    if (!file) return config;
+    const fs::path directory = fs::path(path).parent_path();
+    int lineNumber = 0;
+    for (std::string line; std::getline(file, line);) {
+        ++lineNumber;
+        const std::string text(absl::StripAsciiWhitespace(line.substr(0, line.find('#'))));
+        if (text.empty()) continue;
+        const size_t equals = text.find('=');
+        if (equals == std::string::npos)
+            fail("%s:%d: expected KEY = VALUE (coordinator, token-file, tls-ca), got \"%s\"", path,
+                 lineNumber, text);
+        const std::string key(absl::StripAsciiWhitespace(text.substr(0, equals)));
+        const std::string value(absl::StripAsciiWhitespace(text.substr(equals + 1)));
+        // Files named relative to the config file, and ~/ for the home directory.
+        auto pathValue = [&] {
+            if (absl::StartsWith(value, "~/")) return fromEnvironment("HOME") + value.substr(1);
+            return fs::path(value).is_absolute() ? value : (directory / value).string();
+        };
+        if (key == "coordinator") {
+            config.coordinator = value;
+        } else if (key == "token-file") {
+            config.tokenFile = pathValue();
+        } else if (key == "tls-ca") {
+            config.tlsCa = pathValue();
+        } else {
+            const std::string intended = closestName(key, {"coordinator", "token-file", "tls-ca"});
+            fail("%s:%d: unknown key \"%s\"%s (known: coordinator, token-file, tls-ca)", path,
+                 lineNumber, key,
+                 intended.empty() ? "" : absl::StrFormat("; did you mean \"%s\"?", intended));
+        }
+        if (value.empty()) fail("%s:%d: \"%s\" has no value", path, lineNumber, key);
+    }
+    return config;
+}
+
 FarmClient::FarmClient(const FarmConnectionOptions& options) {
-    std::string address =
-        options.coordinator.empty() ? fromEnvironment("ALPHORN_COORDINATOR") : options.coordinator;
-    std::string tokenFile =
-        options.tokenFile.empty() ? fromEnvironment("ALPHORN_TOKEN_FILE") : options.tokenFile;
-    std::string tlsCa = options.tlsCa.empty() ? fromEnvironment("ALPHORN_TLS_CA") : options.tlsCa;
+    // The command line first, then the environment, then the config file.
+    const ClientConfig config = readClientConfig(clientConfigPath());
+    auto pick = [](const std::string& flag, const char* variable, const std::string& configured) {
+        if (!flag.empty()) return flag;
+        const std::string environment = fromEnvironment(variable);
+        return environment.empty() ? configured : environment;
+    };
+    std::string address = pick(options.coordinator, "ALPHORN_COORDINATOR", config.coordinator);
+    std::string tokenFile = pick(options.tokenFile, "ALPHORN_TOKEN_FILE", config.tokenFile);
+    std::string tlsCa = pick(options.tlsCa, "ALPHORN_TLS_CA", config.tlsCa);
     if (address.empty())
-        fail("no coordinator: pass --coordinator HOST:PORT or set ALPHORN_COORDINATOR");
-    if (tokenFile.empty()) fail("no token: pass --token-file F or set ALPHORN_TOKEN_FILE");
+        fail(
+            "no coordinator: pass --coordinator HOST:PORT, set ALPHORN_COORDINATOR or write "
+            "\"coordinator = HOST:PORT\" in %s",
+            clientConfigPath());
+    if (tokenFile.empty())
+        fail(
+            "no token: pass --token-file F, set ALPHORN_TOKEN_FILE or write \"token-file = F\" "
+            "in %s",
+            clientConfigPath());
     m_token = farm::readTokenFile(tokenFile);
     m_address = address;
     m_tls = !tlsCa.empty();
@@ -223,14 +284,17 @@ v1::JobStatus FarmClient::watch(uint64_t jobId, bool quiet) {
             }
             last = status;
             if (quiet) continue;
+            // Counted in merged units, which move between passes (a pass is done only when its
+            // every tile is merged, so a count of passes would sit still for a long time).
             if (!progress)
                 progress = std::make_unique<ProgressLine>(absl::StrFormat("job %u", jobId),
-                                                          status.settings().passes());
+                                                          status.units_total(), "units");
             progress->update(
-                status.passes_done(),
-                absl::StrFormat("%.2f Msamples/s  %u workers  %u/%u units%s",
-                                status.samples_per_second() * 1e-6, status.active_workers(),
-                                status.units_done(), status.units_total(),
+                status.units_done(),
+                absl::StrFormat("%u/%u passes  %s  %u workers%s", status.passes_done(),
+                                status.settings().passes(),
+                                speedText(status.samples_per_second(), std::nullopt),
+                                status.active_workers(),
                                 status.has_photon_radius()
                                     ? absl::StrFormat("  radius %.4g", status.photon_radius())
                                     : ""),

@@ -15,6 +15,9 @@ namespace alphorn::cli {
 inline constexpr int kExitOk = 0;         // the job finished and its image was written
 inline constexpr int kExitError = 1;      // bad input, unreachable coordinator, refused call
 inline constexpr int kExitJobFailed = 3;  // the job failed or was cancelled
+// `alphorn render` stopped by Ctrl-C (SIGINT): the image of the passes done was written. The
+// shell's code for a process ended by SIGINT (128 + 2), so scripts see the interruption.
+inline constexpr int kExitInterrupted = 130;
 
 struct FarmConnectionOptions {
     std::string coordinator;  // default: $ALPHORN_COORDINATOR
@@ -25,6 +28,16 @@ struct FarmConnectionOptions {
     // while watching a job) before it gives up.
     double reconnectSeconds = 60.0;
 };
+
+// The client config file: $XDG_CONFIG_HOME/alphorn/config, else ~/.config/alphorn/config.
+// Lines "coordinator = HOST:PORT", "token-file = PATH", "tls-ca = PATH" (paths relative to the
+// file, or ~/...), "#" comments. Flags and environment variables take precedence.
+struct ClientConfig {
+    std::string coordinator, tokenFile, tlsCa;
+};
+std::string clientConfigPath();
+// Empty when the file does not exist; throws Error naming file and line for a bad line.
+ClientConfig readClientConfig(const std::string& path);
 
 // Adds --coordinator, --token-file, --tls-ca, --reconnect-seconds and --json to a subcommand.
 void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options);

@@ -24,19 +24,33 @@ int exitCodeFor(const v1::JobStatus& status) {
 std::string duplication(const v1::JobStatus& s) {
     if (s.state() != v1::JOB_STATE_DONE || s.units_restored() != 0 || s.settings().passes() == 0)
         return "";
-    return absl::StrFormat("  pass data built %.2fx",
+    return absl::StrFormat("pass data built %.2fx",
                            double(s.pass_data_builds()) / s.settings().passes());
 }
 
+// The job table: a header row, then one row per job; the last column holds what only some jobs
+// have (photon radius, pass data duplication, error). `--json` prints the same fields.
+void printStatusTable(const std::vector<v1::JobStatus>& jobs) {
+    const char* format = "%-6s %-10s %-20s %9s  %13s  %13s  %4s  %s\n";
+    std::cout << absl::StrFormat(format, "JOB", "STATE", "NAME", "SIZE", "PASSES", "UNITS", "PRIO",
+                                 "NOTES");
+    for (const v1::JobStatus& s : jobs) {
+        std::string notes =
+            s.has_photon_radius() ? absl::StrFormat("photon radius %.4g", s.photon_radius()) : "";
+        for (const std::string& note :
+             {duplication(s), s.error().empty() ? "" : "error: " + s.error()})
+            if (!note.empty()) notes += (notes.empty() ? "" : "  ") + note;
+        std::cout << absl::StrFormat(
+            format, std::to_string(s.job_id()), farm::jobStateName(s.state()), s.settings().name(),
+            absl::StrFormat("%ux%u", s.width(), s.height()),
+            absl::StrFormat("%u/%u", s.passes_done(), s.settings().passes()),
+            absl::StrFormat("%u/%u", s.units_done(), s.units_total()),
+            std::to_string(s.settings().priority()), notes);
+    }
+}
+
 void printStatusLine(const v1::JobStatus& s) {
-    std::cout << absl::StrFormat(
-        "%-6u %-10s %-20s %9s  %13s passes  %13s units  prio %d%s%s%s%s\n", s.job_id(),
-        farm::jobStateName(s.state()), s.settings().name(),
-        absl::StrFormat("%ux%u", s.width(), s.height()),
-        absl::StrFormat("%u/%u", s.passes_done(), s.settings().passes()),
-        absl::StrFormat("%u/%u", s.units_done(), s.units_total()), s.settings().priority(),
-        s.has_photon_radius() ? absl::StrFormat("  photon radius %.4g", s.photon_radius()) : "",
-        duplication(s), s.error().empty() ? "" : "  error: ", s.error());
+    printStatusTable({s});
 }
 
 }  // namespace
@@ -147,8 +161,10 @@ Command addStatusCommand(CLI::App& app) {
                     client.stub().ListJobs(client.context().get(), request, &response), "ListJobs");
                 if (connection->json) {
                     std::cout << (*jobId ? toJson(response.jobs(0)) : toJson(response)) << "\n";
+                } else if (response.jobs().empty()) {
+                    std::cout << "no jobs (alphorn submit SCENE adds one)\n";
                 } else {
-                    for (const auto& status : response.jobs()) printStatusLine(status);
+                    printStatusTable({response.jobs().begin(), response.jobs().end()});
                 }
                 return kExitOk;
             }};
@@ -218,13 +234,21 @@ Command addWorkersCommand(CLI::App& app) {
                     std::cout << toJson(response) << "\n";
                     return kExitOk;
                 }
+                if (response.workers().empty()) {
+                    std::cout << (*all ? "no workers\n"
+                                       : "no workers seen recently (--all lists every worker)\n");
+                    return kExitOk;
+                }
+                const char* format = "%-5s %-28s %5s %9s  %-8s %-5s %6s %13s  %s\n";
+                std::cout << absl::StrFormat(format, "ID", "NAME", "CORES", "MEMORY", "VERSION",
+                                             "STATE", "LEASES", "UNITS MERGED", "LAST SEEN");
                 for (const auto& w : response.workers())
                     std::cout << absl::StrFormat(
-                        "%-5u %-28s %3u cores  %6.1f GiB  %-8s %s  %u leases  %u units merged  "
-                        "seen %.1fs ago\n",
-                        w.worker_id(), w.name(), w.cores(), w.memory_bytes() / double(1 << 30),
-                        w.version(), w.alive() ? "alive" : "dead ", w.leases(), w.units_merged(),
-                        w.seconds_since_seen());
+                        format, std::to_string(w.worker_id()), w.name(), std::to_string(w.cores()),
+                        absl::StrFormat("%.1f GiB", w.memory_bytes() / double(1 << 30)),
+                        w.version(), w.alive() ? "alive" : "dead", std::to_string(w.leases()),
+                        std::to_string(w.units_merged()),
+                        absl::StrFormat("%.1f s ago", w.seconds_since_seen()));
                 return kExitOk;
             }};
 }

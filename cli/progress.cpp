@@ -1,9 +1,13 @@
 #include "cli/progress.h"
 
 #include <absl/strings/str_format.h>
+#include <sys/ioctl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <cstdlib>
+#include <vector>
 
 namespace alphorn::cli {
 
@@ -14,8 +18,62 @@ std::string formatDuration(double seconds) {
     return absl::StrFormat("%ld:%02ld", s / 60, s % 60);
 }
 
-ProgressLine::ProgressLine(std::string label, uint64_t total)
+std::string speedText(double samplesPerSecond, std::optional<double> raysPerSecond) {
+    std::string text = absl::StrFormat("%.2f Msamples/s", samplesPerSecond * 1e-6);
+    if (raysPerSecond) text += absl::StrFormat("  %.2f Mrays/s", *raysPerSecond * 1e-6);
+    return text;
+}
+
+int terminalColumns() {
+    winsize size = {};
+    if (::ioctl(STDERR_FILENO, TIOCGWINSZ, &size) == 0 && size.ws_col > 0) return size.ws_col;
+    if (const char* columns = std::getenv("COLUMNS")) {
+        char* end = nullptr;
+        const long value = std::strtol(columns, &end, 10);
+        if (end != columns && *end == '\0' && value > 0 && value < 100000) return int(value);
+    }
+    return 80;
+}
+
+std::string fitProgressLine(int columns, const std::string& label, double fraction,
+                            const std::string& count, const std::string& elapsed,
+                            const std::string& eta, const std::string& extra) {
+    const size_t room = size_t(std::max(columns - 1, 1));
+    // The parts after the bar, in the order shown, and which to drop first when short of room.
+    struct Part {
+        std::string text;
+        int dropOrder;  // higher: dropped earlier
+        bool shown = true;
+    };
+    std::vector<Part> parts = {{count, 0}, {elapsed + " elapsed", 2}, {"ETA " + eta, 1}};
+    if (!extra.empty()) parts.push_back({extra, 3});
+    const size_t minimumBar = 10, widestBar = 30;
+    auto length = [&](size_t bar) {
+        size_t n = label.size() + (bar ? bar + 3 : 0);  // " [" + bar + "]"
+        for (const Part& part : parts)
+            if (part.shown) n += 2 + part.text.size();
+        return n;
+    };
+    for (int order = 3; order >= 1 && length(minimumBar) > room; --order)
+        for (Part& part : parts)
+            if (part.dropOrder == order) part.shown = false;
+    size_t bar = 0;
+    if (length(minimumBar) <= room)
+        bar = std::min(widestBar, minimumBar + room - length(minimumBar));
+    std::string line = label;
+    if (bar) {
+        const size_t filled = std::min(bar, size_t(std::max(0.0, fraction) * double(bar)));
+        line += " [" + std::string(filled, '#') + std::string(bar - filled, '.') + "]";
+    }
+    for (const Part& part : parts)
+        if (part.shown) line += "  " + part.text;
+    if (line.size() > room) line.resize(room);
+    return line;
+}
+
+ProgressLine::ProgressLine(std::string label, uint64_t total, std::string what)
     : m_label(std::move(label)),
+      m_what(std::move(what)),
       m_total(total),
       m_tty(isatty(STDERR_FILENO)),
       m_start(std::chrono::steady_clock::now()),
@@ -40,22 +98,22 @@ void ProgressLine::show(uint64_t done, const std::string& extra, double elapsed,
     double fraction = m_total ? double(done) / double(m_total) : 1.0;
     if (m_tty) {
         if (done < m_total && now - m_lastPrint < std::chrono::milliseconds(100)) return;
-        const int width = 30;
-        int filled = static_cast<int>(fraction * width);
-        std::string bar(filled, '#');
-        bar.resize(width, '.');
-        std::fprintf(stderr, "\r\033[K%s [%s] %llu/%llu  %s elapsed  ETA %s  %s", m_label.c_str(),
-                     bar.c_str(), (unsigned long long)done, (unsigned long long)m_total,
-                     formatDuration(elapsed).c_str(), formatDuration(eta).c_str(), extra.c_str());
+        const std::string line =
+            fitProgressLine(terminalColumns(), m_label, fraction,
+                            absl::StrFormat("%llu/%llu %s", (unsigned long long)done,
+                                            (unsigned long long)m_total, m_what),
+                            formatDuration(elapsed), formatDuration(eta), extra);
+        std::fprintf(stderr, "\r\033[K%s", line.c_str());
         std::fflush(stderr);
     } else {
         // Plain lines at every tenth of the work, or every 30 s, whichever comes first.
         int decile = static_cast<int>(fraction * 10.0);
         if (decile == m_lastDecile && now - m_lastPrint < std::chrono::seconds(30)) return;
         m_lastDecile = decile;
-        std::fprintf(stderr, "%s: %llu/%llu (%.0f%%), %s elapsed, ETA %s %s\n", m_label.c_str(),
-                     (unsigned long long)done, (unsigned long long)m_total, 100.0 * fraction,
-                     formatDuration(elapsed).c_str(), formatDuration(eta).c_str(), extra.c_str());
+        std::fprintf(stderr, "%s: %llu/%llu %s (%.0f%%), %s elapsed, ETA %s  %s\n", m_label.c_str(),
+                     (unsigned long long)done, (unsigned long long)m_total, m_what.c_str(),
+                     100.0 * fraction, formatDuration(elapsed).c_str(), formatDuration(eta).c_str(),
+                     extra.c_str());
     }
     m_lastPrint = now;
 }
@@ -66,8 +124,8 @@ void ProgressLine::finish(const std::string& outcome) {
             ? m_reportedElapsed
             : std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
     if (m_tty) std::fprintf(stderr, "\r\033[K");
-    std::fprintf(stderr, "%s: %s, %llu/%llu passes in %s\n", m_label.c_str(), outcome.c_str(),
-                 (unsigned long long)m_done, (unsigned long long)m_total,
+    std::fprintf(stderr, "%s: %s, %llu/%llu %s in %s\n", m_label.c_str(), outcome.c_str(),
+                 (unsigned long long)m_done, (unsigned long long)m_total, m_what.c_str(),
                  formatDuration(elapsed).c_str());
 }
 

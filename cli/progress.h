@@ -1,17 +1,19 @@
 // A progress line for long work: a live bar with elapsed time, ETA and throughput on a terminal,
-// and plain, occasional log lines otherwise (CI logs, pipes).
+// fitted to its width, and plain, occasional log lines otherwise (CI logs, pipes).
 #pragma once
 
 #include <chrono>
 #include <cstdint>
+#include <optional>
 #include <string>
 
 namespace alphorn::cli {
 
 class ProgressLine {
   public:
-    ProgressLine(std::string label, uint64_t total);
-    // done: units of work finished so far; extra: free text (e.g. "3.2 Mrays/s").
+    // `what` names the counted work in messages: "passes", "units".
+    ProgressLine(std::string label, uint64_t total, std::string what = "passes");
+    // done: units of work finished so far; extra: free text (e.g. "3.2 Msamples/s").
     void update(uint64_t done, const std::string& extra = "");
     // The same with the elapsed time and ETA measured elsewhere: a farm job's come from the
     // coordinator, which has watched it since it was submitted (a negative ETA shows as
@@ -23,7 +25,7 @@ class ProgressLine {
   private:
     void show(uint64_t done, const std::string& extra, double elapsed, double eta);
 
-    std::string m_label;
+    std::string m_label, m_what;
     uint64_t m_total, m_done = 0;
     bool m_tty;
     std::chrono::steady_clock::time_point m_start, m_lastPrint;
@@ -32,5 +34,19 @@ class ProgressLine {
 };
 
 std::string formatDuration(double seconds);
+
+// Throughput in the one unit every command shows: "1.23 Msamples/s  4.56 Mrays/s" (a sample is
+// one camera path through one pixel in one pass). Without a ray rate (not known) only samples.
+std::string speedText(double samplesPerSecond, std::optional<double> raysPerSecond);
+
+// The columns of the terminal on stderr (TIOCGWINSZ), else $COLUMNS, else 80.
+int terminalColumns();
+
+// One live progress line that fits in `columns` characters (the last column stays free, so no
+// terminal wraps it): the parts that do not fit are left out, least important first (extra,
+// elapsed time, ETA), the bar shrinks or goes, and what still does not fit is cut.
+std::string fitProgressLine(int columns, const std::string& label, double fraction,
+                            const std::string& count, const std::string& elapsed,
+                            const std::string& eta, const std::string& extra);
 
 }  // namespace alphorn::cli

@@ -1,5 +1,6 @@
 // `alphorn render SCENE.xml`: renders locally with all cores and writes EXR and PNG.
 #include "cli/commands.h"
+#include "cli/farm_client.h"
 #include "cli/progress.h"
 
 #include "common/integrator/integrator.h"
@@ -10,8 +11,11 @@
 #include "common/scene/scene.h"
 
 #include <absl/strings/str_format.h>
+#include <signal.h>
 #include <tbb/global_control.h>
+#include <unistd.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <optional>
@@ -27,7 +31,82 @@ struct RenderOptions {
     uint64_t seed = 0;
     int tile = 64;
     float exposure = 0.0f;
+    double timeLimit = 0.0;            // seconds; 0: none
+    std::vector<std::string> defines;  // -D name=value
+    std::string size;                  // --size WxH
+    std::string crop;                  // --crop x0,y0,x1,y1
 };
+
+// --crop x0,y0,x1,y1: pixels [x0, x1) x [y0, y1) of an image of `size`.
+Tile cropWindow(const std::string& text, const Vector2i& size) {
+    Tile crop;
+    char rest = 0;
+    if (std::sscanf(text.c_str(), "%d,%d,%d,%d%c", &crop.x0, &crop.y0, &crop.x1, &crop.y1, &rest) !=
+        4)
+        fail("--crop %s: expected X0,Y0,X1,Y1 (pixels [X0, X1) x [Y0, Y1), e.g. 0,0,64,32)", text);
+    if (crop.x0 < 0 || crop.y0 < 0 || crop.x0 >= crop.x1 || crop.y0 >= crop.y1 ||
+        crop.x1 > size.x() || crop.y1 > size.y())
+        fail("--crop %s: needs 0 <= X0 < X1 <= %d and 0 <= Y0 < Y1 <= %d (the image is %dx%d)",
+             text, size.x(), size.y(), size.x(), size.y());
+    return crop;
+}
+
+// The film's pixels [x0, x1) x [y0, y1) as an image of the crop's size.
+Image resolveCrop(const FilmBlock& film, const Tile& crop) {
+    FilmBlock shifted(0, 0, crop.width(), crop.height());
+    for (int y = 0; y < crop.height(); ++y)
+        for (int x = 0; x < crop.width(); ++x) shifted.at(x, y) = film.at(crop.x0 + x, crop.y0 + y);
+    return resolveImage(shifted, crop.width(), crop.height());
+}
+
+// -D name=value, --size WxH: the scene as the command line changes it.
+SceneOverrides sceneOverrides(const RenderOptions& options) {
+    SceneOverrides overrides;
+    for (const std::string& define : options.defines) {
+        const size_t equals = define.find('=');
+        if (equals == std::string::npos || equals == 0) fail("-D %s: expected NAME=VALUE", define);
+        const std::string name = define.substr(0, equals);
+        for (char c : name)
+            if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_')
+                fail("-D %s: a parameter name has only letters, digits and _", define);
+        if (!overrides.parameters.emplace(name, define.substr(equals + 1)).second)
+            fail("-D %s: %s is defined twice", define, name);
+    }
+    if (!options.size.empty()) {
+        int width = 0, height = 0;
+        char x = 0, rest = 0;
+        if (std::sscanf(options.size.c_str(), "%d%c%d%c", &width, &x, &height, &rest) != 3 ||
+            (x != 'x' && x != 'X') || width < 1 || height < 1 || width > 16384 || height > 16384)
+            fail("--size %s: expected WIDTHxHEIGHT, each from 1 to 16384 (e.g. 640x360)",
+                 options.size);
+        overrides.imageSize = Vector2i(width, height);
+    }
+    return overrides;
+}
+
+// Set by the first Ctrl-C (SIGINT); rendering stops after the pass in progress.
+std::atomic<bool> g_interrupted{false};
+std::atomic<bool> g_stop{false};
+static_assert(std::atomic<bool>::is_always_lock_free, "set from a signal handler");
+
+extern "C" void onInterrupt(int) {
+    g_interrupted.store(true);
+    g_stop.store(true);
+    // Only async-signal-safe calls here. SA_RESETHAND has restored the default action, so a
+    // second Ctrl-C ends the process at once, without an image.
+    const char message[] =
+        "\ninterrupted: finishing the pass in progress, then writing the image of the passes done "
+        "(Ctrl-C again quits without writing)\n";
+    [[maybe_unused]] ssize_t ignored = ::write(STDERR_FILENO, message, sizeof(message) - 1);
+}
+
+void stopOnInterrupt() {
+    struct sigaction action = {};
+    action.sa_handler = onInterrupt;
+    action.sa_flags = SA_RESETHAND | SA_RESTART;
+    sigemptyset(&action.sa_mask);
+    ::sigaction(SIGINT, &action, nullptr);
+}
 }  // namespace
 
 static int runRender(const RenderOptions& options) {
@@ -36,7 +115,7 @@ static int runRender(const RenderOptions& options) {
         threadLimit = std::make_unique<tbb::global_control>(
             tbb::global_control::max_allowed_parallelism, options.threads);
 
-    std::shared_ptr<Scene> scene = loadScene(options.scene);
+    std::shared_ptr<Scene> scene = loadScene(options.scene, {}, sceneOverrides(options));
     std::cerr << "loaded " << options.scene << ": " << scene->toString() << "\n";
 
     RenderSettings settings;
@@ -59,10 +138,17 @@ static int runRender(const RenderOptions& options) {
 
     ProgressLine progress("render", settings.passes);
     const std::optional<RadiusSchedule> radiusSchedule = scene->integrator()->radiusSchedule();
+    const Vector2i size = scene->camera()->outputSize();
+    if (!options.crop.empty()) settings.crop = cropWindow(options.crop, size);
+    settings.stop = &g_stop;
+    stopOnInterrupt();
+    uint32_t passesDone = 0;
     auto start = std::chrono::steady_clock::now();
     FilmBlock film = renderLocal(*scene, settings, [&](const RenderStatus& status) {
         double seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        passesDone = status.passesDone;
+        if (options.timeLimit > 0 && seconds >= options.timeLimit) g_stop.store(true);
         std::string radius;
         if (radiusSchedule)
             radius = absl::StrFormat(
@@ -70,23 +156,37 @@ static int runRender(const RenderOptions& options) {
                 reportedProgressiveRadius(radiusSchedule->initialRadius, radiusSchedule->alpha,
                                           status.passesDone));
         progress.update(status.passesDone,
-                        absl::StrFormat("%.2f Mrays/s%s",
-                                        seconds > 0 ? status.rays / seconds * 1e-6 : 0.0, radius));
+                        speedText(seconds > 0 ? status.samplesDone / seconds : 0.0,
+                                  seconds > 0 ? status.rays / seconds : 0.0) +
+                            radius);
     });
     double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    progress.finish();
+    const bool interrupted = g_interrupted.load();
+    const bool stoppedEarly = passesDone < settings.passes;
+    progress.finish(interrupted ? "interrupted" : stoppedEarly ? "time limit reached" : "done");
+    if (passesDone == 0) {
+        std::cerr << "interrupted before the first pass was done: no image written\n";
+        return kExitInterrupted;
+    }
     if (film.invalidSamples)
         std::cerr << "warning: " << film.invalidSamples
                   << " samples were NaN, infinite or negative and were left out\n";
 
-    const Vector2i size = scene->camera()->outputSize();
-    Image image = resolveImage(film, size.x(), size.y());
+    Image image =
+        settings.crop ? resolveCrop(film, *settings.crop) : resolveImage(film, size.x(), size.y());
     writeEXR(output, image);
     writePNG(pngPathFor(output), image, options.exposure);
-    std::cerr << absl::StrFormat("wrote %s and %s (%d passes, %.1f s)\n", output,
-                                 pngPathFor(output), settings.passes, seconds);
-    return 0;
+    if (stoppedEarly)
+        std::cerr << absl::StrFormat(
+            "%s after %u of %u passes: wrote %s and %s with the %u passes done (the same bytes as "
+            "--passes %u, %.1f s)\n",
+            interrupted ? "interrupted" : "time limit reached", passesDone, settings.passes, output,
+            pngPathFor(output), passesDone, passesDone, seconds);
+    else
+        std::cerr << absl::StrFormat("wrote %s and %s (%d passes, %.1f s)\n", output,
+                                     pngPathFor(output), settings.passes, seconds);
+    return interrupted ? kExitInterrupted : kExitOk;
 }
 
 Command addRenderCommand(CLI::App& app) {
@@ -110,6 +210,18 @@ Command addRenderCommand(CLI::App& app) {
     sub->add_option("--tile", options->tile, "Tile size in pixels (does not change the image)")
         ->check(CLI::Range(1, 16384));
     sub->add_option("--exposure", options->exposure, "PNG exposure in stops (EXR is unaffected)");
+    sub->add_option("-D,--define", options->defines,
+                    "NAME=VALUE: the value of $NAME in the scene's attribute values (repeatable)")
+        ->allow_extra_args(false);
+    sub->add_option("--size", options->size,
+                    "WIDTHxHEIGHT: the image size, replacing the camera's width and height");
+    sub->add_option("--crop", options->crop,
+                    "X0,Y0,X1,Y1: render only pixels [X0, X1) x [Y0, Y1) into an image of that "
+                    "size, the same values as in the whole image");
+    sub->add_option("--time-limit", options->timeLimit,
+                    "Stop after the pass running when SECONDS have passed and write the image of "
+                    "the passes done")
+        ->check(CLI::PositiveNumber);
     return {sub, [options] { return runRender(*options); }};
 }
 

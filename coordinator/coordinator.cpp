@@ -1,40 +1,27 @@
 #include "coordinator/coordinator.h"
 
-#include "common/farm/bundle.h"
 #include "common/farm/convert.h"
 #include "common/farm/film_codec.h"
-#include "common/farm/job_scene.h"
-#include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
-#include "common/integrator/integrator.h"
 #include "common/photon/radius_schedule.h"
-#include "common/scene/scene.h"
+#include "coordinator/admission.h"
 #include "coordinator/checkpoint.h"
 #include "coordinator/log.h"
+#include "coordinator/retention.h"
 
 #include <absl/strings/str_replace.h>
-#include <openssl/crypto.h>
-#include <openssl/evp.h>
-#include <openssl/hmac.h>
 #include <openssl/rand.h>
 #include <unistd.h>
 #include <zstd.h>
 
-#include <cstring>
 #include <filesystem>
 
 namespace alphorn::coordinator {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 using Kind = FarmError::Kind;
 
 namespace {
-
-double wallSeconds() {
-    return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
-        .count();
-}
 
 uint64_t randomLeaseBase() {
     // Lease ids start at a random point so that ids from a previous coordinator process never
@@ -72,41 +59,34 @@ std::string mebibytes(uint64_t bytes) {
     return absl::StrFormat("%.0f MiB", double(bytes) / (1 << 20));
 }
 
+constexpr double kPruneIntervalSeconds = 60;
+
 }  // namespace
 
 uint64_t Coordinator::jobMemoryBytes(int width, int height, uint64_t unitCount) {
-    // Per unit: its slot (72 bytes), its merged flag and a node of the pending set (40 bytes in
-    // libstdc++, 48 with the allocator's rounding): about 120 bytes.
-    constexpr uint64_t kPendingNode = 48;
-    return uint64_t(width) * uint64_t(height) * sizeof(PixelSum) +
-           unitCount * (sizeof(UnitSlot) + kPendingNode + 1);
+    return JobFilm::memoryBytes(width, height, unitCount) +
+           unitCount * LeaseScheduler::kBytesPerUnit;
 }
 
-Coordinator::Coordinator(CoordinatorOptions options)
+Coordinator::Coordinator(CoordinatorOptions options, std::shared_ptr<const Clock> clock)
     : m_options(std::move(options)),
+      m_clock(std::move(clock)),
       m_lock(m_options.stateDirectory),
-      m_db(checkedDatabasePath(m_options.stateDirectory)),
-      m_blobs(m_options.stateDirectory + "/blobs", m_options.maxBlobBytes),
-      m_nextLeaseId(randomLeaseBase()) {
+      m_store(checkedDatabasePath(m_options.stateDirectory)),
+      m_blobs(m_options.stateDirectory + "/blobs", m_options.maxBlobBytes) {
     if (m_options.maxMemoryBytes == 0) m_options.maxMemoryBytes = physicalMemoryBytes() / 2;
     fs::create_directories(fs::path(m_options.stateDirectory) / "jobs");
     fs::create_directories(fs::path(m_options.stateDirectory) / "tmp");
     for (const auto& entry : fs::directory_iterator(fs::path(m_options.stateDirectory) / "tmp"))
         fs::remove_all(entry.path());
-    // Lease tokens are signed with a key kept in the database and name this process's epoch,
-    // so a later process can tell which leases it may re-adopt (those of earlier processes).
-    const auto epochRows = m_db.query("SELECT value FROM meta WHERE key = 'epoch'");
-    m_epoch = epochRows.empty() ? 1 : uint64_t(StateDatabase::integer(epochRows[0][0])) + 1;
-    m_db.execute("INSERT OR REPLACE INTO meta(key, value) VALUES('epoch', ?)", {int64_t(m_epoch)});
-    const auto keyRows = m_db.query("SELECT value FROM meta WHERE key = 'lease_key'");
-    if (!keyRows.empty()) m_leaseKey = StateDatabase::text(keyRows[0][0]);
-    if (m_leaseKey.size() != 32) {
-        m_leaseKey.assign(32, '\0');
-        if (RAND_bytes(reinterpret_cast<unsigned char*>(m_leaseKey.data()), 32) != 1)
-            fail("cannot generate the lease key (OpenSSL)");
-        m_db.execute("INSERT OR REPLACE INTO meta(key, value) VALUES('lease_key', ?)",
-                     {m_leaseKey});
-    }
+    // Lease tokens are signed with a key kept in the store and name this process's epoch, so a
+    // later process can tell which leases it may re-adopt (those of earlier processes).
+    const uint64_t epoch = m_store.beginEpoch();
+    m_scheduler = std::make_unique<LeaseScheduler>(
+        *m_clock, SchedulerOptions{m_options.leaseSeconds, m_options.maxAttempts},
+        LeaseTokens(m_store.leaseKey(), epoch), randomLeaseBase());
+    m_nextCheckpoint = m_clock->monotonicSeconds() + m_options.checkpointIntervalSeconds;
+    m_nextPrune = m_clock->monotonicSeconds() + 1;
     resume();
 }
 
@@ -119,48 +99,42 @@ std::string Coordinator::jobDirectory(uint64_t jobId) const {
 }
 
 void Coordinator::resume() {
-    const double now = wallSeconds();
-    for (const auto& row :
-         m_db.query("SELECT id, name, cores, memory_bytes, version FROM workers")) {
+    const double now = m_clock->wallSeconds();
+    for (const WorkerRow& row : m_store.workers()) {
         WorkerRecord worker;
-        worker.info.set_worker_id(StateDatabase::integer(row[0]));
-        worker.info.set_name(StateDatabase::text(row[1]));
-        worker.info.set_cores(StateDatabase::integer(row[2]));
-        worker.info.set_memory_bytes(StateDatabase::integer(row[3]));
-        worker.info.set_version(StateDatabase::text(row[4]));
-        worker.lastSeen = Clock::now() - std::chrono::hours(24 * 365);
+        worker.info.set_worker_id(row.id);
+        worker.info.set_name(row.name);
+        worker.info.set_cores(row.cores);
+        worker.info.set_memory_bytes(row.memoryBytes);
+        worker.info.set_version(row.version);
         worker.lastContactWall = now;  // forgotten after the keep time unless it calls
-        m_workers[worker.info.worker_id()] = std::move(worker);
+        m_scheduler->addWorker(row.id, false);
+        m_workers[row.id] = std::move(worker);
     }
     const std::string database = m_options.stateDirectory + "/state.sqlite";
-    for (const auto& row : m_db.query("SELECT id, description, state, error, width, height, "
-                                      "filter_border, created_at, finished_at FROM jobs")) {
+    for (const JobRow& row : m_store.jobs()) {
         auto job = std::make_unique<Job>();
-        job->id = StateDatabase::integer(row[0]);
-        job->state = static_cast<v1::JobState>(StateDatabase::integer(row[2]));
-        job->error = StateDatabase::text(row[3]);
-        if (const double* createdAt = std::get_if<double>(&row[7])) job->createdAt = *createdAt;
-        if (const double* finishedAt = std::get_if<double>(&row[8])) job->finishedAt = *finishedAt;
+        job->id = row.id;
+        job->state = static_cast<v1::JobState>(row.state);
+        job->error = row.error;
+        job->createdAt = row.createdAt;
+        job->finishedAt = row.finishedAt;
         try {
-            resumeJob(*job, StateDatabase::text(row[1]), int(StateDatabase::integer(row[4])),
-                      int(StateDatabase::integer(row[5])), int(StateDatabase::integer(row[6])));
+            resumeJob(*job, row);
         } catch (const std::exception& e) {
             // One damaged record fails its job, never the coordinator or the other jobs.
             const std::string message =
                 absl::StrFormat("cannot resume job %u from %s: %s", job->id, database, e.what());
             logWarning("job.unresumable", {field("job", job->id), field("error", message)});
             job->grid = farm::JobGrid();
-            job->units.clear();
-            job->merged.clear();
-            job->pending.clear();
-            job->film = FilmBlock();
-            job->mergedCount = 0;
+            job->film = std::make_unique<JobFilm>(job->grid, "");
+            job->memoryBytes = 0;
+            m_scheduler->addJob(job->id, 0, job->grid, {}, {}, false);
             if (job->state == v1::JOB_STATE_RUNNING || job->state == v1::JOB_STATE_DONE) {
                 job->state = v1::JOB_STATE_FAILED;
                 job->error = message;
                 job->finishedAt = now;
-                m_db.execute("UPDATE jobs SET state = ?, error = ?, finished_at = ? WHERE id = ?",
-                             {int64_t(job->state), message, now, int64_t(job->id)});
+                m_store.setJobState(job->id, job->state, message, now);
             }
         }
         m_memoryInUse += job->memoryBytes;
@@ -169,7 +143,7 @@ void Coordinator::resume() {
     // A job whose last unit was merged but whose end was not recorded before a crash.
     std::vector<Job*> complete;
     for (auto& [id, job] : m_jobs)
-        if (job->state == v1::JOB_STATE_RUNNING && job->mergedCount == job->grid.unitCount())
+        if (job->state == v1::JOB_STATE_RUNNING && job->film->complete())
             complete.push_back(job.get());
     for (Job* job : complete) {
         job->completing = true;
@@ -177,67 +151,55 @@ void Coordinator::resume() {
     }
 }
 
-void Coordinator::resumeJob(Job& job, const std::string& description, int width, int height,
-                            int filterBorder) {
-    if (!job.description.ParseFromString(description))
-        fail("its description is not a valid alphorn.v1.JobDescription");
-    // The id is the row's; descriptions stored before it was known carry 0.
-    job.description.set_job_id(job.id);
+void Coordinator::resumeJob(Job& job, const JobRow& row) {
+    if (!row.description) fail("its description is not a valid alphorn.v1.JobDescription");
+    job.description = *row.description;
     if (job.state < v1::JOB_STATE_RUNNING || job.state > v1::JOB_STATE_CANCELLED)
         fail("state %d is not a job state", int(job.state));
-    if (filterBorder < 0 || filterBorder > 1024) fail("filter border %d is invalid", filterBorder);
+    if (row.filterBorder < 0 || row.filterBorder > 1024)
+        fail("filter border %d is invalid", row.filterBorder);
     const v1::JobSettings& settings = job.description.settings();
-    job.filterBorder = filterBorder;
-    job.grid = farm::JobGrid(width, height, int(settings.tile_size()), settings.passes(),
+    job.filterBorder = row.filterBorder;
+    job.grid = farm::JobGrid(row.width, row.height, int(settings.tile_size()), settings.passes(),
                              settings.passes_per_unit());
     const uint32_t unitCount = job.grid.unitCount();
-    job.units.resize(unitCount);
-    job.merged.assign(unitCount, false);
-    for (const auto& unitRow :
-         m_db.query("SELECT unit_index, attempts, last_error FROM units WHERE job_id = ?",
-                    {int64_t(job.id)})) {
-        const auto index = static_cast<uint64_t>(StateDatabase::integer(unitRow[0]));
-        if (index >= unitCount) continue;
-        job.units[index].attempts = static_cast<uint32_t>(StateDatabase::integer(unitRow[1]));
-        job.units[index].lastError = StateDatabase::text(unitRow[2]);
-        job.attemptsFailed += job.units[index].attempts;
-    }
-    if (job.state != v1::JOB_STATE_RUNNING && job.state != v1::JOB_STATE_DONE) return;
-    const std::string checkpointPath = jobDirectory(job.id) + "/film.ckpt";
-    std::string problem;
-    if (!fs::exists(checkpointPath)) {
-        if (job.state == v1::JOB_STATE_DONE) problem = "its final checkpoint is missing";
-    } else {
-        try {
-            Checkpoint checkpoint = readCheckpoint(checkpointPath, width, height, unitCount);
-            job.merged = std::move(checkpoint.merged);
-            if (job.state == v1::JOB_STATE_RUNNING) job.film = std::move(checkpoint.film);
-        } catch (const Error& e) {
-            problem = e.what();
+    std::vector<uint32_t> attempts(unitCount, 0);
+    for (const UnitAttemptsRow& unit : m_store.unitAttempts(job.id))
+        if (unit.unitIndex < unitCount) attempts[unit.unitIndex] = unit.attempts;
+    job.film = std::make_unique<JobFilm>(job.grid, jobDirectory(job.id) + "/film.ckpt");
+    bool running = job.state == v1::JOB_STATE_RUNNING;
+    if (running || job.state == v1::JOB_STATE_DONE) {
+        const std::string checkpointPath = jobDirectory(job.id) + "/film.ckpt";
+        std::string problem;
+        if (!fs::exists(checkpointPath)) {
+            if (job.state == v1::JOB_STATE_DONE) problem = "its final checkpoint is missing";
+        } else {
+            try {
+                job.film->restore(job.film->readFile(), running);
+            } catch (const Error& e) {
+                problem = e.what();
+            }
+        }
+        if (!problem.empty()) {
+            // Every unit is a pure function of the job, so rendering again gives the same bytes.
+            logWarning("checkpoint.unreadable", {field("job", job.id), field("error", problem),
+                                                 field("action", "rendering it again")});
+            job.film->forget();
+            job.state = v1::JOB_STATE_RUNNING;
+            job.finishedAt = 0;
+            m_store.setJobState(job.id, job.state, job.error, 0);
+            running = true;
         }
     }
-    if (!problem.empty()) {
-        // Every unit is a pure function of the job, so rendering again gives the same bytes.
-        logWarning("checkpoint.unreadable", {field("job", job.id), field("error", problem),
-                                             field("action", "rendering it again")});
-        job.merged.assign(unitCount, false);
-        job.state = v1::JOB_STATE_RUNNING;
-        job.finishedAt = 0;
-        m_db.execute("UPDATE jobs SET state = ?, finished_at = NULL WHERE id = ?",
-                     {int64_t(job.state), int64_t(job.id)});
+    m_scheduler->addJob(job.id, job.description.settings().priority(), job.grid, job.film->merged(),
+                        attempts, running);
+    if (!running) return;
+    if (!job.film->inMemory()) {
+        const Checkpoint none{FilmBlock(0, 0, row.width, row.height), job.film->merged()};
+        job.film->restore(none, true);
     }
-    for (uint32_t i = 0; i < unitCount; ++i)
-        if (job.merged[i]) {
-            job.units[i].state = UnitState::Merged;
-            ++job.mergedCount;
-        }
-    job.checkpointedCount = job.mergedCount;
-    if (job.state != v1::JOB_STATE_RUNNING) return;
-    if (job.film.width() == 0) job.film = FilmBlock(0, 0, width, height);
-    job.memoryBytes = jobMemoryBytes(width, height, unitCount);
-    job.restored = job.mergedCount;
-    for (uint32_t i = 0; i < unitCount; ++i)
-        if (!job.merged[i]) job.pending.insert(i);
+    job.memoryBytes = jobMemoryBytes(row.width, row.height, unitCount);
+    job.restored = job.film->mergedCount();
     logInfo("job.resumed", {field("job", job.id), field("units_restored", job.restored),
                             field("units_total", unitCount)});
 }
@@ -269,59 +231,45 @@ void Coordinator::stop() {
 }
 
 void Coordinator::backgroundLoop() {
-    auto nextCheckpoint =
-        Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                           std::chrono::duration<double>(m_options.checkpointIntervalSeconds));
-    auto nextPrune = Clock::now() + std::chrono::seconds(1);
     std::unique_lock lock(m_mutex);
     while (!m_stopping) {
         m_backgroundWake.wait_for(lock, std::chrono::milliseconds(200));
         if (m_stopping) break;
         lock.unlock();
-        try {
-            expireLeases();
-        } catch (const std::exception& e) {
-            logWarning("leases.expiry_failed", {field("error", e.what())});
-        }
-        if (Clock::now() >= nextPrune) {
-            try {
-                pruneFinishedJobs(wallSeconds());
-            } catch (const std::exception& e) {
-                logWarning("prune.failed", {field("error", e.what())});
-            }
-            nextPrune = Clock::now() + std::chrono::minutes(1);
-        }
-        if (Clock::now() >= nextCheckpoint) {
-            checkpointDirtyJobs();
-            nextCheckpoint =
-                Clock::now() +
-                std::chrono::duration_cast<Clock::duration>(
-                    std::chrono::duration<double>(m_options.checkpointIntervalSeconds));
-        }
+        tick();
         lock.lock();
     }
 }
 
-void Coordinator::recordBlob(const std::string& sha256, uint64_t size) {
+void Coordinator::tick() {
     try {
-        // Informational: the blob directory is what counts, and the blob is in it already.
-        m_db.execute("INSERT OR IGNORE INTO blobs(sha256, size, stored_at) VALUES(?, ?, ?)",
-                     {sha256, int64_t(size), wallSeconds()});
-    } catch (const StorageError& e) {
-        logWarning("blob.not_recorded", {field("sha256", sha256), field("error", e.what())});
+        expireLeases();
+    } catch (const std::exception& e) {
+        logWarning("leases.expiry_failed", {field("error", e.what())});
     }
-    touchBlobs({sha256});
+    if (m_clock->monotonicSeconds() >= m_nextPrune) {
+        try {
+            pruneFinishedJobs(m_clock->wallSeconds());
+        } catch (const std::exception& e) {
+            logWarning("prune.failed", {field("error", e.what())});
+        }
+        m_nextPrune = m_clock->monotonicSeconds() + kPruneIntervalSeconds;
+    }
+    if (m_clock->monotonicSeconds() >= m_nextCheckpoint) {
+        checkpointDirtyJobs();
+        m_nextCheckpoint = m_clock->monotonicSeconds() + m_options.checkpointIntervalSeconds;
+    }
 }
 
 void Coordinator::touchBlobs(const std::vector<std::string>& sha256s) {
-    const double now = wallSeconds();
+    const double now = m_clock->wallSeconds();
     std::lock_guard lock(m_mutex);
     for (const std::string& sha : sha256s) m_blobsTouchedAt[sha] = now;
 }
 
 void Coordinator::pruneFinishedJobs(double wallNow) {
-    const double keep = m_options.keepFinishedSeconds;
-    if (!(keep > 0)) return;
+    const Retention retention(m_options.keepFinishedSeconds);
+    if (retention.keepsEverything()) return;
     std::vector<uint64_t> removed;
     std::set<std::string> referenced;
     std::unordered_map<std::string, double> touchedAt;
@@ -333,8 +281,9 @@ void Coordinator::pruneFinishedJobs(double wallNow) {
             // Nobody holds a pointer to an ended job outside m_mutex once `completing` is
             // cleared (finishJob), so it can go.
             if (job.state != v1::JOB_STATE_RUNNING && !job.completing &&
-                job.finishedAt + keep <= wallNow) {
+                retention.expired(job.finishedAt, wallNow)) {
                 removed.push_back(job.id);
+                m_scheduler->removeJob(job.id);
                 it = m_jobs.erase(it);
                 continue;
             }
@@ -342,42 +291,38 @@ void Coordinator::pruneFinishedJobs(double wallNow) {
                 referenced.insert(file.sha256());
             ++it;
         }
-        for (auto& [id, worker] : m_workers)
-            for (uint64_t jobId : removed) worker.lastChunk.erase(jobId);
         // Workers that have not called for the keep time are forgotten (each restart of a
         // worker registers a new id, so the table would grow without bound).
         for (auto it = m_workers.begin(); it != m_workers.end();) {
-            if (it->second.leases.empty() && it->second.lastContactWall + keep <= wallNow) {
+            if (m_scheduler->leaseCount(it->first) == 0 &&
+                retention.expired(it->second.lastContactWall, wallNow)) {
                 forgottenWorkers.push_back(it->first);
+                m_scheduler->forgetWorker(it->first);
                 it = m_workers.erase(it);
             } else {
                 ++it;
             }
         }
         std::erase_if(m_blobsTouchedAt,
-                      [&](const auto& entry) { return entry.second + keep <= wallNow; });
+                      [&](const auto& entry) { return retention.expired(entry.second, wallNow); });
         touchedAt = m_blobsTouchedAt;
     }
+    const double keep = m_options.keepFinishedSeconds;
     for (uint64_t jobId : removed) {
-        m_db.execute("DELETE FROM units WHERE job_id = ?", {int64_t(jobId)});
-        m_db.execute("DELETE FROM jobs WHERE id = ?", {int64_t(jobId)});
+        m_store.removeJob(jobId);
         std::error_code ignored;
         fs::remove_all(jobDirectory(jobId), ignored);
         logInfo("job.removed",
                 {field("job", jobId), field("kept_hours", absl::StrFormat("%.4g", keep / 3600))});
     }
     for (uint64_t workerId : forgottenWorkers) {
-        m_db.execute("DELETE FROM workers WHERE id = ?", {int64_t(workerId)});
+        m_store.removeWorker(workerId);
         logInfo("worker.forgotten", {field("worker", workerId)});
     }
     uint64_t blobCount = 0, blobBytes = 0;
-    for (const BlobStore::StoredBlob& blob : m_blobs.list()) {
-        double lastUse = blob.storedAt;
-        if (auto it = touchedAt.find(blob.sha256); it != touchedAt.end())
-            lastUse = std::max(lastUse, it->second);
-        if (referenced.count(blob.sha256) || lastUse + keep > wallNow) continue;
+    for (const BlobStore::StoredBlob& blob :
+         retention.unusedBlobs(m_blobs.list(), referenced, touchedAt, wallNow)) {
         m_blobs.remove(blob.sha256);
-        m_db.execute("DELETE FROM blobs WHERE sha256 = ?", {blob.sha256});
         ++blobCount;
         blobBytes += blob.size;
     }
@@ -388,87 +333,18 @@ void Coordinator::pruneFinishedJobs(double wallNow) {
 // ---- jobs ------------------------------------------------------------------------------------
 
 v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
-    farm::Bundle bundle = farm::fromProto(request.bundle());
-    try {
-        farm::validateBundle(bundle);
-    } catch (const Error& e) {
-        throw FarmError(Kind::InvalidArgument, e.what());
-    }
-    uint64_t total = 0;
-    for (const farm::BundleEntry& file : bundle.files) {
-        if (!m_blobs.has(file.sha256))
-            throw FarmError(
-                Kind::FailedPrecondition,
-                absl::StrFormat("blob %s (%s) has not been uploaded", file.sha256, file.path));
-        const uint64_t size = m_blobs.size(file.sha256);
-        if (size != file.size)
-            throw FarmError(Kind::InvalidArgument,
-                            absl::StrFormat("%s: the manifest says %u bytes, the blob has %u",
-                                            file.path, file.size, size));
-        total += size;
-    }
-    if (total > m_options.maxBundleBytes)
-        throw FarmError(Kind::ResourceExhausted,
-                        absl::StrFormat("the bundle has %u bytes, more than the limit of %u", total,
-                                        m_options.maxBundleBytes));
-
-    // Materialize and load the scene now, so a broken scene fails at submit with the loader's
-    // "file:line: problem", with paths as the client knows them (relative to the bundle).
-    const std::string staging =
-        (fs::path(m_options.stateDirectory) / "tmp" / farm::generateToken().substr(0, 16)).string();
-    const std::string bundleDirectory = staging + "/bundle";
-    v1::JobSettings settings = request.settings();
-    std::shared_ptr<Scene> scene;
-    try {
-        const std::string scenePath = farm::materializeBundle(
-            bundle, bundleDirectory, [&](const std::string& sha) { return m_blobs.pathOf(sha); });
-        scene = farm::loadJobScene(bundleDirectory, scenePath, settings.integrator_override());
-    } catch (const Error& e) {
-        fs::remove_all(staging);
-        throw FarmError(Kind::InvalidArgument,
-                        absl::StrReplaceAll(e.what(), {{bundleDirectory + "/", ""}}));
-    }
-    const Vector2i size = scene->camera()->outputSize();
-    if (settings.passes() == 0)
-        settings.set_passes(static_cast<uint32_t>(scene->sampler()->sampleCount()));
-    if (settings.tile_size() == 0) settings.set_tile_size(m_options.defaultTileSize);
-    if (settings.passes_per_unit() == 0) {
-        // Units of at least ~64k samples keep the per-unit cost (two round trips, compression,
-        // merge) near 1% of rendering, while at least 4 pass chunks keep previews progressive.
-        const uint64_t tilePixels = std::min<uint64_t>(
-            uint64_t(settings.tile_size()) * settings.tile_size(), uint64_t(size.x()) * size.y());
-        const uint64_t bySamples = std::max<uint64_t>(1, 65536 / std::max<uint64_t>(1, tilePixels));
-        const uint64_t byPreview = std::max<uint64_t>(1, settings.passes() / 4);
-        settings.set_passes_per_unit(static_cast<uint32_t>(
-            std::max<uint64_t>(m_options.defaultPassesPerUnit, std::min(bySamples, byPreview))));
-    }
-    // A unit never spans more passes than the job has (the image does not depend on it).
-    settings.set_passes_per_unit(std::min(settings.passes_per_unit(), settings.passes()));
-    if (settings.name().empty()) settings.set_name(fs::path(bundle.scenePath).stem().string());
-    const std::optional<RadiusSchedule> radiusSchedule = scene->integrator()->radiusSchedule();
-    const int filterBorder = -makeUnitBlock(*scene, Tile{0, 0, 1, 1}).x0();
-    scene.reset();
+    const AdmissionLimits limits{m_options.maxBundleBytes, m_options.maxImagePixels,
+                                 m_options.maxPasses, m_options.defaultTileSize,
+                                 m_options.defaultPassesPerUnit};
+    AdmittedJob admitted =
+        admitJob(request, m_blobs, limits, (fs::path(m_options.stateDirectory) / "tmp").string());
+    const std::string& staging = admitted.stagingDirectory;
+    const farm::JobGrid& grid = admitted.grid;
     auto refuse = [&](Kind kind, const std::string& message) {
         fs::remove_all(staging);
         throw FarmError(kind, message);
     };
-    if (uint64_t(size.x()) * uint64_t(size.y()) > m_options.maxImagePixels)
-        refuse(Kind::ResourceExhausted,
-               absl::StrFormat("the image has %dx%d pixels, more than the limit of %u", size.x(),
-                               size.y(), m_options.maxImagePixels));
-    if (settings.passes() > m_options.maxPasses)
-        refuse(Kind::ResourceExhausted, absl::StrFormat("%u passes requested, the limit is %u",
-                                                        settings.passes(), m_options.maxPasses));
-    if (settings.tile_size() > 16384)
-        refuse(Kind::InvalidArgument, "tile size must be at most 16384");
-    farm::JobGrid grid;
-    try {
-        grid = farm::JobGrid(size.x(), size.y(), int(settings.tile_size()), settings.passes(),
-                             settings.passes_per_unit());
-    } catch (const Error& e) {
-        refuse(Kind::InvalidArgument, e.what());
-    }
-    const uint64_t memory = jobMemoryBytes(size.x(), size.y(), grid.unitCount());
+    const uint64_t memory = jobMemoryBytes(grid.width(), grid.height(), grid.unitCount());
     {
         std::lock_guard lock(m_mutex);
         if (m_memoryInUse + memory > m_options.maxMemoryBytes)
@@ -477,7 +353,7 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
                        "the job needs about %s of coordinator memory (a %dx%d film and %u units; "
                        "larger tiles or more passes per unit need fewer units); running jobs "
                        "hold %s of the %s allowed (--max-memory)",
-                       mebibytes(memory), size.x(), size.y(), grid.unitCount(),
+                       mebibytes(memory), grid.width(), grid.height(), grid.unitCount(),
                        mebibytes(m_memoryInUse), mebibytes(m_options.maxMemoryBytes)));
         // Reserved now, so concurrent submissions cannot overshoot together.
         m_memoryInUse += memory;
@@ -488,32 +364,18 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     };
 
     auto job = std::make_unique<Job>();
-    job->description.mutable_bundle()->CopyFrom(request.bundle());
-    job->description.mutable_settings()->CopyFrom(settings);
-    if (radiusSchedule) {
-        v1::PhotonRadiusSchedule& schedule = *job->description.mutable_photon_radius_schedule();
-        schedule.set_initial_radius(radiusSchedule->initialRadius);
-        schedule.set_alpha(radiusSchedule->alpha);
-    }
-    job->createdAt = wallSeconds();
+    job->description = std::move(admitted.description);
+    job->createdAt = m_clock->wallSeconds();
     try {
-        const auto rows = m_db.query(
-            "INSERT INTO jobs(description, state, width, height, filter_border, created_at) "
-            "VALUES(?, ?, ?, ?, ?, ?) RETURNING id",
-            {job->description.SerializeAsString(), int64_t(v1::JOB_STATE_RUNNING),
-             int64_t(size.x()), int64_t(size.y()), int64_t(filterBorder), job->createdAt});
-        job->id = static_cast<uint64_t>(StateDatabase::integer(rows.at(0).at(0)));
+        job->id = m_store.addJob(job->description, grid.width(), grid.height(),
+                                 admitted.filterBorder, job->createdAt);
     } catch (const Error& e) {
         release();
         refuse(Kind::ResourceExhausted, absl::StrFormat("cannot record the job: %s", e.what()));
     }
     job->description.set_job_id(job->id);
     try {
-        // The stored description carries its id too, so workers told of a resumed job load
-        // that job's scene and no other.
-        m_db.execute("UPDATE jobs SET description = ? WHERE id = ?",
-                     {job->description.SerializeAsString(), int64_t(job->id)});
-        // A directory for a new id means the database lost jobs: never delete their films.
+        // A directory for a new id means the store lost jobs: never delete their films.
         if (fs::exists(jobDirectory(job->id)))
             fail("%s exists already although the database had no job %u", jobDirectory(job->id),
                  job->id);
@@ -521,7 +383,7 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     } catch (const std::exception& e) {
         release();
         try {
-            m_db.execute("DELETE FROM jobs WHERE id = ?", {int64_t(job->id)});
+            m_store.removeJob(job->id);
         } catch (const Error&) {
             // The row stays; resume() fails that job with a clear error instead.
         }
@@ -529,19 +391,19 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     }
     job->memoryBytes = memory;
     job->grid = grid;
-    job->filterBorder = filterBorder;
-    job->film = FilmBlock(0, 0, size.x(), size.y());
-    job->units.resize(grid.unitCount());
-    job->merged.assign(grid.unitCount(), false);
-    for (uint32_t i = 0; i < grid.unitCount(); ++i) job->pending.insert(i);
+    job->filterBorder = admitted.filterBorder;
+    job->film = std::make_unique<JobFilm>(grid, jobDirectory(job->id) + "/film.ckpt");
+    job->film->startEmpty();
 
     std::lock_guard lock(m_mutex);
     const uint64_t id = job->id;
-    m_jobs[id] = std::move(job);
+    const v1::JobSettings& settings = job->description.settings();
+    m_scheduler->addJob(id, settings.priority(), grid, {}, {}, true);
     logInfo("job.submitted", {field("job", id), field("name", settings.name()),
-                              field("size", absl::StrFormat("%dx%d", size.x(), size.y())),
+                              field("size", absl::StrFormat("%dx%d", grid.width(), grid.height())),
                               field("passes", settings.passes()), field("units", grid.unitCount()),
                               field("priority", settings.priority())});
+    m_jobs[id] = std::move(job);
     m_workAvailable.notify_all();
     return statusLocked(*m_jobs[id]);
 }
@@ -553,30 +415,25 @@ Coordinator::Job& Coordinator::jobLocked(uint64_t jobId) {
 }
 
 v1::JobStatus Coordinator::statusLocked(const Job& job) const {
+    const JobFilm& film = *job.film;
     v1::JobStatus status;
     status.set_job_id(job.id);
     *status.mutable_settings() = job.description.settings();
     status.set_state(job.state);
     status.set_error(job.error);
-    if (job.state == v1::JOB_STATE_RUNNING && !job.checkpointError.empty())
+    if (job.state == v1::JOB_STATE_RUNNING && !film.checkpointError().empty())
         status.set_error(absl::StrFormat(
             "cannot write the checkpoint (%s); retrying every %.3g s",
-            absl::StrReplaceAll(job.checkpointError, {{m_options.stateDirectory + "/", ""}}),
+            absl::StrReplaceAll(film.checkpointError(), {{m_options.stateDirectory + "/", ""}}),
             m_options.checkpointIntervalSeconds));
     status.set_width(job.grid.width());
     status.set_height(job.grid.height());
     status.set_units_total(job.grid.unitCount());
-    status.set_units_done(job.mergedCount);
-    std::set<uint64_t> workers;
-    uint32_t leased = 0;
-    for (const UnitSlot& slot : job.units)
-        if (slot.state == UnitState::Leased) {
-            ++leased;
-            workers.insert(slot.workerId);
-        }
-    status.set_units_leased(leased);
-    status.set_active_workers(static_cast<uint32_t>(workers.size()));
-    const uint32_t passesDone = job.grid.passesComplete(job.merged);
+    status.set_units_done(film.mergedCount());
+    const LeaseScheduler::JobLeases leases = m_scheduler->jobLeases(job.id);
+    status.set_units_leased(leases.leased);
+    status.set_active_workers(leases.activeWorkers);
+    const uint32_t passesDone = film.passesComplete();
     status.set_passes_done(passesDone);
     const v1::PhotonRadiusSchedule& schedule = job.description.photon_radius_schedule();
     if (job.description.has_photon_radius_schedule() && isValidRadiusAlpha(schedule.alpha())) {
@@ -586,32 +443,25 @@ v1::JobStatus Coordinator::statusLocked(const Job& job) const {
     status.set_units_restored(job.restored);
     status.set_units_merged_this_run(job.mergedThisRun);
     status.set_results_discarded(job.discarded);
-    status.set_attempts_failed(job.attemptsFailed);
-    status.set_checkpoints_written(job.checkpointsWritten);
-    status.set_units_leased_this_run(job.leasedThisRun);
+    status.set_attempts_failed(leases.attemptsFailed);
+    status.set_checkpoints_written(film.checkpointsWritten());
+    status.set_units_leased_this_run(leases.leasedThisRun);
     status.set_pass_data_builds(job.passDataBuilds);
-    status.set_invalid_samples(job.film.invalidSamples);
-    status.set_elapsed_seconds(wallSeconds() - job.createdAt);
+    status.set_invalid_samples(film.invalidSamples());
+    status.set_elapsed_seconds(m_clock->wallSeconds() - job.createdAt);
     double rate = 0.0;
     if (job.firstMergeAt) {
-        const double seconds =
-            std::chrono::duration<double>(Clock::now() - *job.firstMergeAt).count();
+        const double seconds = m_clock->monotonicSeconds() - *job.firstMergeAt;
         if (seconds > 0.05) rate = job.samplesMergedThisRun / seconds;
     }
     status.set_samples_per_second(rate);
     const uint64_t totalSamples =
         uint64_t(job.grid.width()) * job.grid.height() * job.grid.passes();
-    uint64_t doneSamples = 0;
-    for (uint32_t i = 0; i < job.grid.unitCount(); ++i)
-        if (job.merged[i]) {
-            const RenderUnit unit = job.grid.unit(i);
-            doneSamples +=
-                uint64_t(unit.tile.width()) * unit.tile.height() * (unit.passEnd - unit.passBegin);
-        }
     if (job.state != v1::JOB_STATE_RUNNING)
         status.set_eta_seconds(0.0);
     else
-        status.set_eta_seconds(rate > 0 ? double(totalSamples - doneSamples) / rate : -1.0);
+        status.set_eta_seconds(rate > 0 ? double(totalSamples - film.samplesMerged()) / rate
+                                        : -1.0);
     return status;
 }
 
@@ -630,23 +480,17 @@ std::vector<v1::JobStatus> Coordinator::listJobs(uint64_t jobId) {
 void Coordinator::endJobLocked(Job& job, v1::JobState state, const std::string& error) {
     job.state = state;
     job.error = error;
-    job.pending.clear();
-    for (UnitSlot& slot : job.units)
-        if (slot.state == UnitState::Leased) {
-            m_leases.erase(slot.leaseId);
-            if (auto it = m_workers.find(slot.workerId); it != m_workers.end())
-                it->second.leases.erase(slot.leaseId);
-            slot.state = UnitState::Pending;
-        }
-    job.finishedAt = wallSeconds();
+    if (m_scheduler->running(job.id)) m_scheduler->endJob(job.id);
+    job.finishedAt = m_clock->wallSeconds();
     m_memoryInUse -= job.memoryBytes;
     job.memoryBytes = 0;
-    job.checkpointError.clear();
-    if (state != v1::JOB_STATE_DONE) job.film = FilmBlock();
-    // Memory first, database last: if the write fails (a full disk) the job has ended in this
-    // process, and a restart finds it as the database says (a finished film is finished again).
-    m_db.execute("UPDATE jobs SET state = ?, error = ?, finished_at = ? WHERE id = ?",
-                 {int64_t(state), error, job.finishedAt, int64_t(job.id)});
+    job.film->clearCheckpointError();
+    if (state != v1::JOB_STATE_DONE) job.film->release();
+    // Memory first, store last: if the write fails (a full disk) the job has ended in this
+    // process, and a restart finds it as the store says (a finished film is finished again).
+    if (m_durableWriteHooks.before) m_durableWriteHooks.before();
+    m_store.setJobState(job.id, state, error, job.finishedAt);
+    if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     (state == v1::JOB_STATE_DONE ? logInfo : logWarning)(
         "job.ended",
         {field("job", job.id), field("state", farm::jobStateName(state)), field("error", error),
@@ -664,8 +508,7 @@ v1::JobStatus Coordinator::cancel(uint64_t jobId) {
 
 Coordinator::ImageSnapshot Coordinator::snapshot(uint64_t jobId, bool preview) {
     ImageSnapshot snap;
-    int width = 0, height = 0;
-    uint32_t units = 0;
+    farm::JobGrid grid;
     {
         std::lock_guard lock(m_mutex);
         Job& job = jobLocked(jobId);
@@ -674,22 +517,18 @@ Coordinator::ImageSnapshot Coordinator::snapshot(uint64_t jobId, bool preview) {
             throw FarmError(
                 Kind::FailedPrecondition,
                 absl::StrFormat("job %u is still running (%u of %u units); ask for a preview",
-                                jobId, job.mergedCount, job.grid.unitCount()));
+                                jobId, job.film->mergedCount(), job.grid.unitCount()));
         if (job.state == v1::JOB_STATE_FAILED || job.state == v1::JOB_STATE_CANCELLED)
             throw FarmError(Kind::FailedPrecondition,
                             absl::StrFormat("job %u has no image: %s", jobId, job.error));
-        if (job.film.width() > 0) {
-            snap.film = job.film;
+        if (job.film->inMemory()) {
+            snap.film = job.film->film();
             return snap;
         }
-        width = job.grid.width();
-        height = job.grid.height();
-        units = job.grid.unitCount();
+        grid = job.grid;
     }
     // A finished job whose film was released from memory: read its final checkpoint.
-    Checkpoint checkpoint =
-        readCheckpoint(jobDirectory(jobId) + "/film.ckpt", width, height, units);
-    snap.film = std::move(checkpoint.film);
+    snap.film = std::move(JobFilm(grid, jobDirectory(jobId) + "/film.ckpt").readFile().film);
     return snap;
 }
 
@@ -703,12 +542,12 @@ uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
         throw FarmError(
             Kind::FailedPrecondition,
             absl::StrFormat("worker version %s cannot join a %s coordinator", theirs, ours));
-    const auto rows = m_db.query(
-        "INSERT INTO workers(name, cores, memory_bytes, version, registered_at) VALUES(?, ?, ?, ?, "
-        "?) RETURNING id",
-        {request.name(), int64_t(request.cores()), int64_t(request.memory_bytes()),
-         request.version(), wallSeconds()});
-    const uint64_t id = static_cast<uint64_t>(StateDatabase::integer(rows.at(0).at(0)));
+    WorkerRow row;
+    row.name = request.name();
+    row.cores = request.cores();
+    row.memoryBytes = request.memory_bytes();
+    row.version = request.version();
+    const uint64_t id = m_store.addWorker(row, m_clock->wallSeconds());
     std::lock_guard lock(m_mutex);
     WorkerRecord& worker = m_workers[id];
     worker.info.set_worker_id(id);
@@ -716,8 +555,8 @@ uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
     worker.info.set_cores(request.cores());
     worker.info.set_memory_bytes(request.memory_bytes());
     worker.info.set_version(request.version());
-    worker.lastSeen = Clock::now();
-    worker.lastContactWall = wallSeconds();
+    worker.lastContactWall = m_clock->wallSeconds();
+    m_scheduler->addWorker(id, true);
     logInfo("worker.registered",
             {field("worker", id), field("name", request.name()), field("cores", request.cores()),
              field("version", request.version())});
@@ -727,88 +566,46 @@ uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
 Coordinator::WorkerRecord* Coordinator::touchWorkerLocked(uint64_t workerId) {
     auto it = m_workers.find(workerId);
     if (it == m_workers.end()) return nullptr;
-    it->second.lastSeen = Clock::now();
-    it->second.lastContactWall = wallSeconds();
+    m_scheduler->touchWorker(workerId);
+    it->second.lastContactWall = m_clock->wallSeconds();
     return &it->second;
-}
-
-std::string Coordinator::leaseToken(uint64_t epoch, uint64_t leaseId, uint64_t workerId,
-                                    uint64_t jobId, uint32_t unitIndex) const {
-    uint64_t fields[5] = {epoch, leaseId, workerId, jobId, unitIndex};
-    unsigned char mac[EVP_MAX_MD_SIZE];
-    unsigned int macSize = 0;
-    HMAC(EVP_sha256(), m_leaseKey.data(), int(m_leaseKey.size()),
-         reinterpret_cast<const unsigned char*>(fields), sizeof fields, mac, &macSize);
-    std::string token(reinterpret_cast<const char*>(&epoch), sizeof epoch);
-    token.append(reinterpret_cast<const char*>(mac), macSize);
-    return token;
-}
-
-bool Coordinator::leaseTokenValid(const std::string& token, uint64_t leaseId, uint64_t workerId,
-                                  uint64_t jobId, uint32_t unitIndex) const {
-    uint64_t epoch = 0;
-    if (token.size() < sizeof epoch) return false;
-    std::memcpy(&epoch, token.data(), sizeof epoch);
-    if (epoch >= m_epoch) return false;  // this process's own leases are never re-adopted
-    const std::string expected = leaseToken(epoch, leaseId, workerId, jobId, unitIndex);
-    return token.size() == expected.size() &&
-           CRYPTO_memcmp(token.data(), expected.data(), token.size()) == 0;
 }
 
 std::vector<v1::WorkerInfo> Coordinator::listWorkers(bool includeDead) {
     std::lock_guard lock(m_mutex);
     std::vector<v1::WorkerInfo> result;
-    const auto now = Clock::now();
     for (const auto& [id, worker] : m_workers) {
         v1::WorkerInfo info = worker.info;
-        const double since = std::chrono::duration<double>(now - worker.lastSeen).count();
+        const double since = m_scheduler->secondsSinceSeen(id);
         info.set_seconds_since_seen(since);
-        info.set_leases(static_cast<uint32_t>(worker.leases.size()));
+        info.set_leases(m_scheduler->leaseCount(id));
         info.set_alive(since < 3 * m_options.leaseSeconds);
         if (info.alive() || includeDead) result.push_back(std::move(info));
     }
     return result;
 }
 
-v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId, Clock::time_point until) {
+v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId,
+                                             std::chrono::steady_clock::time_point until) {
     std::unique_lock lock(m_mutex);
     v1::AcquireWorkResponse response;
     for (;;) {
-        WorkerRecord* worker = touchWorkerLocked(workerId);
-        if (!worker)
-            throw FarmError(Kind::NotFound,
+        if (!touchWorkerLocked(workerId))
+            throw FarmError(Kind::UnknownWorker,
                             absl::StrFormat("unknown worker %u: register again", workerId));
         if (m_stopping) return response;
-        // Highest priority first, then the oldest job (FIFO).
-        Job* best = nullptr;
-        for (auto& [id, job] : m_jobs) {
-            if (job->state != v1::JOB_STATE_RUNNING || job->pending.empty()) continue;
-            if (!best ||
-                job->description.settings().priority() > best->description.settings().priority())
-                best = job.get();
-        }
-        if (best) {
-            const uint32_t index = pickUnitLocked(*best, workerId);
-            best->pending.erase(index);
-            worker->lastChunk[best->id] = best->grid.chunkOf(index);
-            UnitSlot& slot = best->units[index];
-            slot.state = UnitState::Leased;
-            slot.leaseId = m_nextLeaseId++;
-            slot.workerId = workerId;
-            slot.deadline =
-                Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                   std::chrono::duration<double>(m_options.leaseSeconds));
-            m_leases[slot.leaseId] = LeaseRef{best->id, index};
-            worker->leases.insert(slot.leaseId);
-            ++best->leasedThisRun;
+        if (const auto lease = m_scheduler->lease(workerId)) {
+            const Job& job = *m_jobs.at(lease->jobId);
             response.set_has_work(true);
-            response.set_lease_id(slot.leaseId);
-            *response.mutable_unit() = farm::toProto(best->id, index, best->grid.unit(index));
-            *response.mutable_job() = best->description;
+            response.set_lease_id(lease->leaseId);
+            *response.mutable_unit() =
+                farm::toProto(job.id, lease->unitIndex, job.grid.unit(lease->unitIndex));
+            *response.mutable_job() = job.description;
             response.set_lease_seconds(m_options.leaseSeconds);
-            response.set_lease_token(leaseToken(m_epoch, slot.leaseId, workerId, best->id, index));
+            response.set_lease_token(lease->token);
             return response;
         }
+        // The wait is real time even with another clock: it only bounds a long poll.
         if (m_workAvailable.wait_until(lock, until) == std::cv_status::timeout) {
             touchWorkerLocked(workerId);
             return response;
@@ -816,158 +613,74 @@ v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId, Clock::time_poin
     }
 }
 
-// Locality: a worker keeps the per-pass data (photon maps) of the passes it rendered last, so
-// it gets another tile of the same pass chunk when one is pending; otherwise the first unit
-// of a chunk no other live worker is on, so each chunk's photons are traced by one worker;
-// only when every pending unit's chunk is taken does it share one (the end of a job).
-uint32_t Coordinator::pickUnitLocked(const Job& job, uint64_t workerId) const {
-    const farm::JobGrid& grid = job.grid;
-    const auto firstOfChunk = [&](uint32_t chunk) {
-        auto it = job.pending.lower_bound(chunk * grid.tileCount());
-        return it != job.pending.end() && grid.chunkOf(*it) == chunk ? it : job.pending.end();
-    };
-    std::set<uint32_t> taken;
-    const auto recent = Clock::now() - std::chrono::duration_cast<Clock::duration>(
-                                           std::chrono::duration<double>(m_options.leaseSeconds));
-    for (const auto& [id, worker] : m_workers) {
-        auto chunk = worker.lastChunk.find(job.id);
-        if (chunk == worker.lastChunk.end()) continue;
-        if (id == workerId) {
-            if (auto it = firstOfChunk(chunk->second); it != job.pending.end()) return *it;
-        } else if (worker.lastSeen >= recent) {
-            taken.insert(chunk->second);
-        }
-    }
-    for (auto it = job.pending.begin(); it != job.pending.end();) {
-        const uint32_t chunk = grid.chunkOf(*it);
-        if (!taken.count(chunk)) return *it;
-        it = job.pending.lower_bound((chunk + 1) * grid.tileCount());
-    }
-    return *job.pending.begin();
-}
-
 v1::HeartbeatResponse Coordinator::heartbeat(const v1::HeartbeatRequest& request) {
     std::lock_guard lock(m_mutex);
     v1::HeartbeatResponse response;
-    WorkerRecord* worker = touchWorkerLocked(request.worker_id());
-    if (!worker) {
+    if (!touchWorkerLocked(request.worker_id())) {
         response.set_unknown_worker(true);
         for (uint64_t lease : request.lease_ids()) response.add_drop_lease_ids(lease);
         return response;
     }
-    const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                             std::chrono::duration<double>(m_options.leaseSeconds));
     for (int i = 0; i < request.lease_ids_size(); ++i) {
         const uint64_t leaseId = request.lease_ids(i);
-        auto it = m_leases.find(leaseId);
-        bool valid = false;
-        if (it == m_leases.end() && i < request.held_units_size()) {
-            // A lease granted to this worker by an earlier coordinator process (the token says
-            // so): re-adopt the unit if it is still waiting, so the worker's render is not
-            // thrown away. Invented leases and leases that expired in this process are fenced.
-            const v1::HeldUnit& held = request.held_units(i);
-            auto job = m_jobs.find(held.job_id());
-            if (job != m_jobs.end() && job->second->state == v1::JOB_STATE_RUNNING &&
-                leaseTokenValid(held.lease_token(), leaseId, request.worker_id(), held.job_id(),
-                                held.unit_index()) &&
-                held.unit_index() < job->second->grid.unitCount() &&
-                job->second->units[held.unit_index()].state == UnitState::Pending) {
-                UnitSlot& slot = job->second->units[held.unit_index()];
-                job->second->pending.erase(held.unit_index());
-                slot.state = UnitState::Leased;
-                slot.leaseId = leaseId;
-                slot.workerId = request.worker_id();
-                m_leases[leaseId] = LeaseRef{held.job_id(), held.unit_index()};
-                worker->leases.insert(leaseId);
-                logInfo("unit.readopted",
-                        {field("job", held.job_id()), field("unit", held.unit_index()),
-                         field("worker", request.worker_id()), field("lease", leaseId)});
-                it = m_leases.find(leaseId);
-            }
-        }
-        if (it != m_leases.end()) {
-            Job& job = *m_jobs.at(it->second.jobId);
-            UnitSlot& slot = job.units[it->second.unitIndex];
-            if (slot.workerId == request.worker_id() && slot.state == UnitState::Leased) {
-                slot.deadline = deadline;
-                valid = true;
-            }
-        }
+        std::optional<LeaseScheduler::HeldUnit> held;
+        if (i < request.held_units_size())
+            held = LeaseScheduler::HeldUnit{request.held_units(i).job_id(),
+                                            request.held_units(i).unit_index(),
+                                            request.held_units(i).lease_token()};
+        const uint32_t leasedBefore = m_scheduler->leaseCount(request.worker_id());
         // Fencing: the lease expired (and the unit may be someone else's now), or the unit is
         // merged or its job ended. The worker stops rendering it.
-        if (!valid) response.add_drop_lease_ids(leaseId);
+        if (!m_scheduler->renew(request.worker_id(), leaseId, held ? &*held : nullptr)) {
+            response.add_drop_lease_ids(leaseId);
+        } else if (m_scheduler->leaseCount(request.worker_id()) > leasedBefore) {
+            logInfo("unit.readopted",
+                    {field("job", held->jobId), field("unit", held->unitIndex),
+                     field("worker", request.worker_id()), field("lease", leaseId)});
+        }
     }
     return response;
 }
 
-void Coordinator::releaseLeaseLocked(uint64_t leaseId) {
-    auto it = m_leases.find(leaseId);
-    if (it == m_leases.end()) return;
-    Job& job = *m_jobs.at(it->second.jobId);
-    UnitSlot& slot = job.units[it->second.unitIndex];
-    if (auto worker = m_workers.find(slot.workerId); worker != m_workers.end())
-        worker->second.leases.erase(leaseId);
-    m_leases.erase(it);
-}
-
-void Coordinator::recordFailureLocked(Job& job, uint32_t unitIndex, const std::string& message) {
-    UnitSlot& slot = job.units[unitIndex];
-    ++slot.attempts;
-    ++job.attemptsFailed;
-    slot.lastError = message;
+void Coordinator::recordFailureLocked(Job& job, const LeaseScheduler::Failure& failure,
+                                      const std::string& message) {
     try {
-        m_db.execute(
-            "INSERT INTO units(job_id, unit_index, attempts, last_error) VALUES(?, ?, ?, ?) "
-            "ON CONFLICT(job_id, unit_index) DO UPDATE SET attempts = excluded.attempts, "
-            "last_error = excluded.last_error",
-            {int64_t(job.id), int64_t(unitIndex), int64_t(slot.attempts), message});
+        if (m_durableWriteHooks.before) m_durableWriteHooks.before();
+        m_store.setUnitAttempts(job.id, failure.unitIndex, failure.attempts, message);
+        if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     } catch (const StorageError& e) {
         // The unit goes back in the queue all the same; only the count may restart from less.
-        logWarning("unit.attempt_not_recorded",
-                   {field("job", job.id), field("unit", unitIndex), field("error", e.what())});
+        logWarning(
+            "unit.attempt_not_recorded",
+            {field("job", job.id), field("unit", failure.unitIndex), field("error", e.what())});
     }
-    logWarning("unit.failed", {field("job", job.id), field("unit", unitIndex),
-                               field("attempt", slot.attempts), field("error", message)});
-    if (slot.attempts >= m_options.maxAttempts) {
+    logWarning("unit.failed", {field("job", job.id), field("unit", failure.unitIndex),
+                               field("attempt", failure.attempts), field("error", message)});
+    if (failure.poisoned) {
         // A poison unit: it fails its job, never the farm.
         try {
             endJobLocked(job, v1::JOB_STATE_FAILED,
                          absl::StrFormat("unit %u failed %u times (the limit); last error: %s",
-                                         unitIndex, slot.attempts, message));
+                                         failure.unitIndex, failure.attempts, message));
         } catch (const StorageError& e) {
             logWarning("job.end_not_recorded", {field("job", job.id), field("error", e.what())});
         }
         return;
     }
-    job.pending.insert(unitIndex);
     m_workAvailable.notify_all();
 }
 
 void Coordinator::expireLeases() {
     std::lock_guard lock(m_mutex);
-    const auto now = Clock::now();
-    std::vector<uint64_t> expired;
-    for (const auto& [leaseId, ref] : m_leases) {
-        const UnitSlot& slot = m_jobs.at(ref.jobId)->units[ref.unitIndex];
-        if (slot.deadline < now) expired.push_back(leaseId);
-    }
-    for (uint64_t leaseId : expired) {
-        auto it = m_leases.find(leaseId);
-        if (it == m_leases.end()) continue;  // the job ended while handling an earlier lease
-        const LeaseRef ref = it->second;
-        Job& job = *m_jobs.at(ref.jobId);
-        UnitSlot& slot = job.units[ref.unitIndex];
-        const uint64_t workerId = slot.workerId;
-        releaseLeaseLocked(leaseId);
-        slot.state = UnitState::Pending;
+    for (const auto& [expired, failure] : m_scheduler->expireLeases()) {
         std::string workerName;
-        if (auto worker = m_workers.find(workerId); worker != m_workers.end())
+        if (auto worker = m_workers.find(expired.workerId); worker != m_workers.end())
             workerName = worker->second.info.name();
         recordFailureLocked(
-            job, ref.unitIndex,
+            *m_jobs.at(expired.jobId), failure,
             absl::StrFormat("lease expired: worker %u (%s) stopped responding while rendering "
                             "unit %u (crashed, hung or lost its network)",
-                            workerId, workerName, ref.unitIndex));
+                            expired.workerId, workerName, expired.unitIndex));
     }
 }
 
@@ -986,44 +699,42 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
                                           const std::string& compressedFilm) {
     const uint64_t jobId = header.job_id();
     const uint32_t unitIndex = header.unit_index();
+    const uint64_t leaseId = header.lease_id();
     RenderUnit unit;
     int border = 0;
     {
         std::lock_guard lock(m_mutex);
         if (!touchWorkerLocked(header.worker_id()))
-            throw FarmError(Kind::NotFound, absl::StrFormat("unknown worker %u: register again",
-                                                            header.worker_id()));
+            throw FarmError(
+                Kind::UnknownWorker,
+                absl::StrFormat("unknown worker %u: register again", header.worker_id()));
         Job& job = jobLocked(jobId);
         if (unitIndex >= job.grid.unitCount())
             throw FarmError(Kind::InvalidArgument,
                             absl::StrFormat("job %u has no unit %u", jobId, unitIndex));
-        UnitSlot& slot = job.units[unitIndex];
-        const bool ownsLease = slot.state == UnitState::Leased && slot.leaseId == header.lease_id();
         if (!header.error().empty() || header.handed_back()) {
             // Failures and hand-backs only count from the current holder of the lease.
-            if (!ownsLease || job.state != v1::JOB_STATE_RUNNING) return v1::RESULT_DISCARDED;
-            releaseLeaseLocked(slot.leaseId);
-            slot.state = UnitState::Pending;
             if (header.handed_back()) {
+                if (!m_scheduler->handBack(jobId, unitIndex, leaseId)) return v1::RESULT_DISCARDED;
                 logInfo("unit.handed_back", {field("job", jobId), field("unit", unitIndex),
                                              field("worker", header.worker_id())});
-                job.pending.insert(unitIndex);
                 m_workAvailable.notify_all();
             } else {
+                const auto failure = m_scheduler->failAttempt(jobId, unitIndex, leaseId);
+                if (!failure) return v1::RESULT_DISCARDED;
                 recordFailureLocked(
-                    job, unitIndex,
+                    job, *failure,
                     absl::StrFormat("worker %u: %s", header.worker_id(), header.error()));
             }
             return v1::RESULT_RECORDED;
         }
         // Fencing: a unit merged already, reassigned to another worker, or of an ended job is
         // dropped. Results are idempotent by unit id: a unit is merged at most once.
-        if (job.state != v1::JOB_STATE_RUNNING || slot.state == UnitState::Merged ||
-            (slot.state == UnitState::Leased && !ownsLease)) {
+        if (!m_scheduler->mayMerge(jobId, unitIndex, leaseId)) {
             ++job.discarded;
             logInfo("result.discarded",
                     {field("job", jobId), field("unit", unitIndex),
-                     field("worker", header.worker_id()), field("lease", header.lease_id())});
+                     field("worker", header.worker_id()), field("lease", leaseId)});
             return v1::RESULT_DISCARDED;
         }
         unit = job.grid.unit(unitIndex);
@@ -1051,55 +762,42 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
     }
     block.invalidSamples = header.invalid_samples();
 
-    bool complete = false;
-    Job* jobPointer = nullptr;
+    Job* completed = nullptr;
     {
         std::lock_guard lock(m_mutex);
         Job& job = jobLocked(jobId);
-        UnitSlot& slot = job.units[unitIndex];
-        const bool ownsLease = slot.state == UnitState::Leased && slot.leaseId == header.lease_id();
-        if (job.state != v1::JOB_STATE_RUNNING || slot.state == UnitState::Merged ||
-            (slot.state == UnitState::Leased && !ownsLease)) {
+        // Checked again: the job or the lease may have changed while decompressing.
+        if (!m_scheduler->markMerged(jobId, unitIndex, leaseId)) {
             ++job.discarded;
             return v1::RESULT_DISCARDED;
         }
-        if (slot.state == UnitState::Leased) releaseLeaseLocked(slot.leaseId);
-        job.pending.erase(unitIndex);  // a result from an earlier lease of a requeued unit
-        job.film.add(block);
-        slot.state = UnitState::Merged;
-        job.merged[unitIndex] = true;
-        ++job.mergedCount;
+        job.film->merge(unitIndex, block);
         ++job.mergedThisRun;
-        if (!job.firstMergeAt) job.firstMergeAt = Clock::now();
+        if (!job.firstMergeAt) job.firstMergeAt = m_clock->monotonicSeconds();
         if (header.built_pass_data()) job.passDataBuilds += unit.passEnd - unit.passBegin;
         job.samplesMergedThisRun +=
             uint64_t(unit.tile.width()) * unit.tile.height() * (unit.passEnd - unit.passBegin);
         if (auto worker = m_workers.find(header.worker_id()); worker != m_workers.end())
             worker->second.info.set_units_merged(worker->second.info.units_merged() + 1);
-        if (job.mergedCount == job.grid.unitCount()) {
+        if (job.film->complete()) {
             job.completing = true;
-            complete = true;
-            jobPointer = &job;
+            completed = &job;
         }
     }
-    if (complete) finishJob(*jobPointer);
+    if (completed) finishJob(*completed);
     return v1::RESULT_MERGED;
 }
 
 void Coordinator::finishJob(Job& job) {
-    FilmBlock film;
-    std::vector<bool> merged;
-    uint32_t count;
+    JobFilm::Copy copy;
     {
         std::lock_guard lock(m_mutex);
-        film = job.film;
-        merged = job.merged;
-        count = job.mergedCount;
+        copy = job.film->copy();
     }
     // The final film is on disk before the job is reported done.
     bool written = false;
     try {
-        writeJobCheckpoint(job, film, merged, count);
+        writeJobCheckpoint(job, copy);
         written = true;
     } catch (const std::exception& e) {
         logWarning("checkpoint.failed",
@@ -1112,57 +810,46 @@ void Coordinator::finishJob(Job& job) {
         } catch (const std::exception& e) {
             logWarning("job.end_not_recorded", {field("job", job.id), field("error", e.what())});
         }
-        job.film = FilmBlock();  // served from the checkpoint from now on; memory stays flat
+        job.film->release();  // served from the checkpoint from now on; memory stays flat
     }
     job.completing = false;
 }
 
-void Coordinator::writeJobCheckpoint(Job& job, const FilmBlock& film,
-                                     const std::vector<bool>& merged, uint32_t count) {
-    std::lock_guard checkpointLock(job.checkpointMutex);
+void Coordinator::writeJobCheckpoint(Job& job, const JobFilm::Copy& copy) {
+    std::lock_guard writeLock(job.film->writeMutex());
     {
         std::lock_guard lock(m_mutex);
-        // Merges only add units, so a higher count is a newer film; never overwrite it.
-        if (count < job.checkpointedCount || (count == job.checkpointedCount && count > 0)) return;
+        if (!job.film->newerThanCheckpoint(copy.count)) return;
     }
-    const auto start = Clock::now();
+    const double start = m_clock->monotonicSeconds();
     try {
-        writeCheckpoint(jobDirectory(job.id) + "/film.ckpt", film, merged);
+        if (m_durableWriteHooks.before) m_durableWriteHooks.before();
+        job.film->writeFile(copy);
+        if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     } catch (const std::exception& e) {
         std::lock_guard lock(m_mutex);
-        job.checkpointError = e.what();
+        job.film->checkpointFailed(e.what());
         throw;
     }
     std::lock_guard lock(m_mutex);
-    job.checkpointError.clear();
-    job.checkpointedCount = count;
-    ++job.checkpointsWritten;
+    job.film->checkpointWritten(copy.count);
     logInfo("checkpoint.written",
-            {field("job", job.id), field("units_merged", count),
+            {field("job", job.id), field("units_merged", copy.count),
              field("units_total", job.grid.unitCount()),
-             field("ms",
-                   absl::StrFormat(
-                       "%.1f",
-                       std::chrono::duration<double, std::milli>(Clock::now() - start).count()))});
+             field("ms", absl::StrFormat("%.1f", 1000 * (m_clock->monotonicSeconds() - start)))});
 }
 
 void Coordinator::checkpointDirtyJobs() {
-    struct Pending {
-        Job* job;
-        FilmBlock film;
-        std::vector<bool> merged;
-        uint32_t count;
-    };
     std::vector<Job*> dirty, complete;
     {
         std::lock_guard lock(m_mutex);
         for (auto& [id, job] : m_jobs) {
             if (job->state != v1::JOB_STATE_RUNNING || job->completing) continue;
-            if (job->mergedCount == job->grid.unitCount()) {
+            if (job->film->complete()) {
                 // Its final checkpoint failed before: try again.
                 job->completing = true;
                 complete.push_back(job.get());
-            } else if (job->mergedCount > job->checkpointedCount) {
+            } else if (job->film->dirty()) {
                 dirty.push_back(job.get());
             }
         }
@@ -1170,16 +857,14 @@ void Coordinator::checkpointDirtyJobs() {
     for (Job* job : complete) finishJob(*job);
     // One job at a time, so at most one extra film copy is in memory.
     for (Job* job : dirty) {
-        Pending pending{job, {}, {}, 0};
+        JobFilm::Copy copy;
         {
             std::lock_guard lock(m_mutex);
             if (job->state != v1::JOB_STATE_RUNNING || job->completing) continue;
-            pending.film = job->film;
-            pending.merged = job->merged;
-            pending.count = job->mergedCount;
+            copy = job->film->copy();
         }
         try {
-            writeJobCheckpoint(*job, pending.film, pending.merged, pending.count);
+            writeJobCheckpoint(*job, copy);
         } catch (const std::exception& e) {
             logWarning("checkpoint.failed", {field("job", job->id), field("error", e.what())});
         }

@@ -326,7 +326,7 @@ TEST_F(CoordinatorJob, EndedJobsAndUnusedBlobsAreRemovedAfterTheKeepTime) {
         BlobStore::Upload blob(coordinator.blobs(), orphan);
         blob.append(bytes);
         blob.commit();
-        coordinator.recordBlob(orphan, bytes.size());
+        coordinator.touchBlobs({orphan});
 
         coordinator.pruneFinishedJobs(wallNow() + 900);
         EXPECT_EQ(coordinator.listJobs(0).size(), 2u) << "removed before the keep time";

@@ -1,30 +1,16 @@
-// Structured log lines on stderr: "ts=2026-11-22T06:40:01.123Z level=info event=unit.merged job=3
-// unit=17 worker=2". One line per event, key=value, values with spaces quoted, so the lines can
-// be grepped by people and parsed by log collectors alike.
+// The coordinator logs with the farm's structured logger (common/farm/log.h), shared with the
+// worker so both daemons write the same key=value lines.
 #pragma once
 
-#include <initializer_list>
-#include <string>
-#include <utility>
+#include "common/farm/log.h"
 
 namespace alphorn::coordinator {
 
-using LogField = std::pair<std::string, std::string>;
-
-void logEvent(const char* level, const std::string& event, std::initializer_list<LogField> fields);
-inline void logInfo(const std::string& event, std::initializer_list<LogField> fields = {}) {
-    logEvent("info", event, fields);
-}
-inline void logWarning(const std::string& event, std::initializer_list<LogField> fields = {}) {
-    logEvent("warn", event, fields);
-}
-
-template <typename T>
-LogField field(const std::string& key, const T& value) {
-    if constexpr (std::is_convertible_v<T, std::string>)
-        return {key, std::string(value)};
-    else
-        return {key, std::to_string(value)};
-}
+using farm::field;
+using farm::LogField;
+using farm::logInfo;
+using farm::LogSink;
+using farm::logWarning;
+using farm::setLogSink;
 
 }  // namespace alphorn::coordinator

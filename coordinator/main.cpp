@@ -60,7 +60,8 @@ int main(int argc, char** argv) {
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        // CLI11's own codes (105, 106, ...) are not the documented ones: a usage error exits 1.
+        return app.exit(e) == 0 ? 0 : 1;
     }
     options.keepFinishedSeconds = keepFinishedHours * 3600;
 

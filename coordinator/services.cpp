@@ -1,5 +1,6 @@
 #include "coordinator/services.h"
 
+#include "common/farm/error_reason.h"
 #include "common/farm/film_codec.h"
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
@@ -22,7 +23,12 @@ grpc::Status toStatus(const std::exception& e) {
             case FarmError::Kind::InvalidArgument:
                 return {grpc::StatusCode::INVALID_ARGUMENT, e.what()};
             case FarmError::Kind::NotFound:
-                return {grpc::StatusCode::NOT_FOUND, e.what()};
+                // Jobs are the only things looked up by id that clients name.
+                return farm::statusWithReason(grpc::StatusCode::NOT_FOUND, e.what(),
+                                              v1::ERROR_REASON_UNKNOWN_JOB);
+            case FarmError::Kind::UnknownWorker:
+                return farm::statusWithReason(grpc::StatusCode::NOT_FOUND, e.what(),
+                                              v1::ERROR_REASON_UNKNOWN_WORKER);
             case FarmError::Kind::FailedPrecondition:
                 return {grpc::StatusCode::FAILED_PRECONDITION, e.what()};
             case FarmError::Kind::ResourceExhausted:
@@ -97,12 +103,10 @@ grpc::Status ClientServiceImpl::PutBlobs(grpc::ServerContext* context,
     return guarded(context, m_token, "PutBlobs", [&] {
         std::unique_ptr<BlobStore::Upload> upload;
         std::string current;
-        uint64_t size = 0;
         v1::BlobChunk chunk;
         while (reader->Read(&chunk)) {
             if (current.empty()) {
                 current = chunk.sha256();
-                size = 0;
                 try {
                     upload = std::make_unique<BlobStore::Upload>(m_coordinator.blobs(), current);
                 } catch (const Error& e) {
@@ -112,7 +116,6 @@ grpc::Status ClientServiceImpl::PutBlobs(grpc::ServerContext* context,
                 return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
                                     "a new blob started before the last chunk of " + current);
             }
-            size += chunk.data().size();
             try {
                 upload->append(chunk.data());
             } catch (const Error& e) {
@@ -122,7 +125,7 @@ grpc::Status ClientServiceImpl::PutBlobs(grpc::ServerContext* context,
             if (chunk.last()) {
                 try {
                     if (upload->commit()) {
-                        m_coordinator.recordBlob(current, size);
+                        m_coordinator.touchBlobs({current});
                         response->set_stored(response->stored() + 1);
                     } else {
                         response->set_already_present(response->already_present() + 1);
@@ -287,6 +290,7 @@ grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext* context,
                                           v1::HeartbeatResponse* response) {
     return guarded(context, m_token, "Heartbeat", [&] {
         *response = m_coordinator.heartbeat(*request);
+        if (response->unknown_worker()) response->set_error_reason(v1::ERROR_REASON_UNKNOWN_WORKER);
         return grpc::Status::OK;
     });
 }
@@ -301,7 +305,9 @@ grpc::Status WorkerServiceImpl::ReportResult(grpc::ServerContext* context,
         std::string data = header.data();
         header.clear_data();
         const uint64_t limit = m_coordinator.maxResultBytes(header.job_id());
-        if (limit == 0) return grpc::Status(grpc::StatusCode::NOT_FOUND, "no such job");
+        if (limit == 0)
+            return farm::statusWithReason(grpc::StatusCode::NOT_FOUND, "no such job",
+                                          v1::ERROR_REASON_UNKNOWN_JOB);
         if (header.error().empty() && !header.handed_back() && header.compressed_size() > limit)
             return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
                                 "the result is larger than any unit of the job");

@@ -8,39 +8,6 @@ namespace alphorn::coordinator {
 
 namespace {
 
-constexpr const char* kSchema = R"sql(
-CREATE TABLE IF NOT EXISTS jobs(
-  id INTEGER PRIMARY KEY AUTOINCREMENT,
-  description BLOB NOT NULL,   -- serialized alphorn.v1.JobDescription (bundle + settings)
-  state INTEGER NOT NULL,      -- alphorn.v1.JobState
-  error TEXT NOT NULL DEFAULT '',
-  width INTEGER NOT NULL,
-  height INTEGER NOT NULL,
-  filter_border INTEGER NOT NULL,
-  created_at REAL NOT NULL,
-  finished_at REAL);
-CREATE TABLE IF NOT EXISTS units(
-  job_id INTEGER NOT NULL,
-  unit_index INTEGER NOT NULL,
-  attempts INTEGER NOT NULL,   -- failed attempts: worker errors and expired leases
-  last_error TEXT NOT NULL,
-  PRIMARY KEY(job_id, unit_index));
-CREATE TABLE IF NOT EXISTS blobs(
-  sha256 TEXT PRIMARY KEY,
-  size INTEGER NOT NULL,
-  stored_at REAL NOT NULL);
-CREATE TABLE IF NOT EXISTS meta(
-  key TEXT PRIMARY KEY,        -- 'epoch': starts of this state directory; 'lease_key': HMAC key
-  value BLOB NOT NULL);
-CREATE TABLE IF NOT EXISTS workers(
-  id INTEGER PRIMARY KEY AUTOINCREMENT,
-  name TEXT NOT NULL,
-  cores INTEGER NOT NULL,
-  memory_bytes INTEGER NOT NULL,
-  version TEXT NOT NULL,
-  registered_at REAL NOT NULL);
-)sql";
-
 struct Statement {
     sqlite3_stmt* handle = nullptr;
     ~Statement() { sqlite3_finalize(handle); }
@@ -61,12 +28,6 @@ StateDatabase::StateDatabase(const std::string& path) {
     // machine.
     execute("PRAGMA journal_mode=WAL");
     execute("PRAGMA synchronous=FULL");
-    char* error = nullptr;
-    if (sqlite3_exec(m_db, kSchema, nullptr, nullptr, &error) != SQLITE_OK) {
-        std::string message = error ? error : "unknown error";
-        sqlite3_free(error);
-        fail("%s: cannot create the schema: %s", path, message);
-    }
 }
 
 StateDatabase::~StateDatabase() {

@@ -1,6 +1,5 @@
-// The coordinator's durable state in SQLite: jobs, units (attempts and errors), blobs and
-// workers. Film sums are not here but in per-job checkpoint files (see checkpoint.h); the
-// database says which jobs exist and how they stand, the checkpoint which units are merged.
+// A thread-safe SQLite connection with bound parameters: the storage under the job store
+// (job_store.h), which owns the schema and turns rows into types.
 #pragma once
 
 #include "common/core/error.h"
@@ -28,7 +27,7 @@ class StateDatabase {
     using Value = std::variant<std::nullptr_t, int64_t, double, std::string>;
     using Row = std::vector<Value>;
 
-    // Opens (creating if needed) the database in WAL mode and creates the schema.
+    // Opens (creating if needed) the database in WAL mode with synchronous=FULL.
     explicit StateDatabase(const std::string& path);
     ~StateDatabase();
     StateDatabase(const StateDatabase&) = delete;

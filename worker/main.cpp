@@ -1,4 +1,5 @@
 // alphorn-worker: renders units leased from an alphorn-coordinator. See docs/operations.md.
+#include "common/farm/log.h"
 #include "common/farm/rpc.h"
 #include "worker/worker.h"
 
@@ -6,7 +7,6 @@
 #include <CLI/CLI.hpp>
 
 #include <csignal>
-#include <iostream>
 
 using namespace alphorn;
 
@@ -34,7 +34,9 @@ int main(int argc, char** argv) {
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        // Help and version exit 0; usage errors exit 1 like every other error (not CLI11's
+        // 105-114), as documented.
+        return app.exit(e) == 0 ? 0 : 1;
     }
     options.cacheBytes = static_cast<uint64_t>(cacheGiB * double(uint64_t(1) << 30));
 
@@ -55,17 +57,17 @@ int main(int argc, char** argv) {
             for (;;) {
                 int signal = 0;
                 sigwait(&signals, &signal);
-                std::cerr << "alphorn-worker: signal " << signal << ": draining\n";
+                farm::logInfo("worker.signal",
+                              {farm::field("signal", signal), farm::field("action", "draining")});
                 worker.requestStop();
             }
         });
         signalThread.detach();
         const int code = worker.run();
-        std::cerr.flush();
         // Leave without unwinding the detached signal thread.
         std::_Exit(code);
     } catch (const std::exception& e) {
-        std::cerr << "alphorn-worker: error: " << e.what() << "\n";
+        farm::logEvent("error", "worker.failed", {farm::field("error", e.what())});
         return 1;
     }
 }

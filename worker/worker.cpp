@@ -3,8 +3,10 @@
 #include "common/core/error.h"
 #include "common/farm/bundle.h"
 #include "common/farm/convert.h"
+#include "common/farm/error_reason.h"
 #include "common/farm/film_codec.h"
 #include "common/farm/job_scene.h"
+#include "common/farm/log.h"
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
 #include "common/scene/scene.h"
@@ -17,7 +19,6 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
-#include <iostream>
 #include <random>
 
 namespace alphorn::worker {
@@ -25,19 +26,21 @@ namespace alphorn::worker {
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
+using farm::field;
+using farm::logInfo;
+using farm::logWarning;
+
 namespace {
 
-void log(const std::string& message) {
-    std::cerr << "alphorn-worker[" << ::getpid() << "]: " << message << std::endl;
-}
-
-bool transient(const grpc::Status& status) {
-    switch (status.error_code()) {
-        case grpc::StatusCode::UNAVAILABLE:
-        case grpc::StatusCode::DEADLINE_EXCEEDED:
-        case grpc::StatusCode::CANCELLED:
-        case grpc::StatusCode::ABORTED:
+// Whether a refusal means the coordinator does not know this worker's id. A coordinator of this
+// version says so with a typed reason; an older one sent NOT_FOUND without a reason from
+// AcquireWork, whose only NOT_FOUND is an unknown worker (`notFoundMeansUnknown`).
+bool unknownWorker(const grpc::Status& status, bool notFoundMeansUnknown) {
+    switch (farm::reasonOf(status)) {
+        case v1::ERROR_REASON_UNKNOWN_WORKER:
             return true;
+        case v1::ERROR_REASON_UNSPECIFIED:
+            return notFoundMeansUnknown && status.error_code() == grpc::StatusCode::NOT_FOUND;
         default:
             return false;
     }
@@ -54,7 +57,8 @@ void crashIfTestHookMatches(const v1::AcquireWorkResponse& lease) {
     if (colon == std::string::npos) return;
     if (lease.job().settings().name() == spec.substr(0, colon) &&
         std::to_string(lease.unit().unit_index()) == spec.substr(colon + 1)) {
-        log("ALPHORN_TEST_CRASH_UNIT matches unit " + spec + ": aborting (test hook)");
+        logWarning("test_hook.crash", {field("hook", "ALPHORN_TEST_CRASH_UNIT"),
+                                       field("unit", spec), field("action", "abort")});
         std::abort();
     }
 }
@@ -89,7 +93,10 @@ Worker::Worker(WorkerOptions options)
     : m_options(std::move(options)),
       m_channel(farm::makeChannel(m_options.coordinator, m_options.tlsCaPath)),
       m_stub(v1::WorkerService::NewStub(m_channel)),
-      m_cache((fs::path(m_options.cacheDirectory) / "blobs").string(), m_options.cacheBytes) {
+      m_cache((fs::path(m_options.cacheDirectory) / "blobs").string(), m_options.cacheBytes),
+      m_retrySeed(m_options.retrySeed != 0
+                      ? m_options.retrySeed
+                      : (uint64_t(std::random_device{}()) << 32) | std::random_device{}()) {
     if (m_options.name.empty()) {
         char host[256] = {};
         ::gethostname(host, sizeof host - 1);
@@ -122,22 +129,24 @@ void Worker::requestStop() {
     m_leaseWake.notify_all();
 }
 
-void Worker::sleepBackoff(int& attempt) {
-    // Exponential backoff with jitter: 100 ms doubling to 1 s, so a restarted coordinator is not
-    // stampeded by every worker at once. It stays short because the calls themselves wait for
-    // an unreachable coordinator (makeContext), and nothing drives a reconnection while this
-    // thread sleeps: a longer pause would only delay finding the coordinator back.
-    static thread_local std::mt19937 random(std::random_device{}());
-    const double base = std::min(1000.0, 100.0 * std::pow(2.0, attempt));
-    const double jittered = base * std::uniform_real_distribution<double>(0.5, 1.0)(random);
-    ++attempt;
+farm::RetryPolicy Worker::makeRetryPolicy() {
+    // One seeded stream per policy (per retry loop), all derived from the worker's seed.
+    const uint64_t index = m_retryPolicies++;
+    return farm::RetryPolicy(m_options.retry, m_retrySeed + index * 0x9e3779b97f4a7c15ULL);
+}
+
+void Worker::sleepBackoff(farm::RetryPolicy& policy) {
+    // The default cap stays short (1 s) because the calls themselves wait for an unreachable
+    // coordinator (makeContext), and nothing drives a reconnection while this thread sleeps: a
+    // longer pause would only delay finding the coordinator back.
+    const std::chrono::milliseconds delay = policy.nextDelay();
+    if (m_options.onBackoff) m_options.onBackoff(delay);
     std::unique_lock lock(m_leaseMutex);
-    m_leaseWake.wait_for(lock, std::chrono::milliseconds(static_cast<int>(jittered)),
-                         [&] { return m_stopRequests >= 2; });
+    m_leaseWake.wait_for(lock, delay, [&] { return m_stopRequests >= 2; });
 }
 
 void Worker::registerWithCoordinator() {
-    int attempt = 0;
+    farm::RetryPolicy retry = makeRetryPolicy();
     for (;;) {
         v1::RegisterRequest request;
         request.set_name(m_options.name);
@@ -147,33 +156,36 @@ void Worker::registerWithCoordinator() {
                                  uint64_t(::sysconf(_SC_PAGE_SIZE)));
         request.set_version(ALPHORN_VERSION);
         v1::RegisterResponse response;
-        auto ctx = context(5s);
+        auto ctx = context(m_options.registerTimeout);
         grpc::Status status = m_stub->Register(ctx.get(), request, &response);
         if (status.ok()) {
             m_workerId = response.worker_id();
             m_heartbeatSeconds = std::max(0.05, response.heartbeat_interval_seconds());
             m_mustRegister = false;
-            log("registered as worker " + std::to_string(response.worker_id()) + " with " +
-                m_options.coordinator);
+            logInfo("worker.registered",
+                    {field("worker", response.worker_id()), field("name", m_options.name),
+                     field("coordinator", m_options.coordinator)});
             return;
         }
-        if (!transient(status))
+        if (!farm::isTransient(status))
             fail("the coordinator refused registration: %s", status.error_message());
         if (m_stopRequests > 0) fail("stopping before the coordinator could be reached");
-        if (attempt == 0) {
-            log("coordinator unavailable (" + status.error_message() + "); retrying with backoff");
+        if (retry.failures() == 0) {
+            logWarning("coordinator.unavailable",
+                       {field("rpc", "Register"), field("error", status.error_message()),
+                        field("action", "retrying with backoff")});
             const std::string hint = farm::protocolMismatchHint(
                 m_options.coordinator, !m_options.tlsCaPath.empty(), "--tls-ca");
-            if (!hint.empty()) log(hint);
+            if (!hint.empty()) logWarning("coordinator.protocol_mismatch", {field("hint", hint)});
         }
-        sleepBackoff(attempt);
+        sleepBackoff(retry);
     }
 }
 
 void Worker::heartbeatLoop() {
     std::unique_lock lock(m_leaseMutex);
     while (!m_finished) {
-        m_leaseWake.wait_for(lock, std::chrono::duration<double>(m_heartbeatSeconds));
+        m_leaseWake.wait_for(lock, std::chrono::duration<double>(m_heartbeatSeconds.load()));
         if (m_finished) break;
         if (m_mustRegister) continue;
         v1::HeartbeatRequest request;
@@ -184,12 +196,14 @@ void Worker::heartbeatLoop() {
         }
         lock.unlock();
         v1::HeartbeatResponse response;
-        auto ctx = context(
-            std::chrono::milliseconds(static_cast<int>(1000 * std::max(1.0, m_heartbeatSeconds))));
+        auto ctx = context(std::chrono::milliseconds(
+            static_cast<int>(1000 * std::max(1.0, m_heartbeatSeconds.load()))));
         grpc::Status status = m_stub->Heartbeat(ctx.get(), request, &response);
         lock.lock();
         if (!status.ok()) continue;  // the coordinator is away: keep working, keep the result
-        if (response.unknown_worker()) m_mustRegister = true;
+        // unknown_worker is the same news from a coordinator that predates error_reason.
+        if (response.error_reason() == v1::ERROR_REASON_UNKNOWN_WORKER || response.unknown_worker())
+            m_mustRegister = true;
         for (uint64_t lease : response.drop_lease_ids()) {
             // Fenced: our lease expired and the unit went to someone else, or it is done.
             if (!m_activeLeases.count(lease)) continue;
@@ -221,7 +235,7 @@ Worker::JobContext& Worker::prepareJob(const v1::JobDescription& job) {
     const std::string scenePath =
         farm::materializeBundle(bundle, directory, [&](const std::string& sha) {
             return m_cache.get(sha, [&](const std::string& hash, const std::string& temporary) {
-                int attempt = 0;
+                farm::RetryPolicy retry = makeRetryPolicy();
                 for (;;) {
                     std::ofstream file(temporary, std::ios::binary | std::ios::trunc);
                     v1::GetBlobRequest request;
@@ -233,15 +247,16 @@ Worker::JobContext& Worker::prepareJob(const v1::JobDescription& job) {
                         file.write(chunk.data().data(), std::streamsize(chunk.data().size()));
                     grpc::Status status = reader->Finish();
                     if (status.ok()) return;
-                    if (!transient(status) || m_stopRequests >= 2)
+                    if (!farm::isTransient(status) || m_stopRequests >= 2)
                         fail("cannot fetch blob %s: %s", hash, status.error_message());
-                    sleepBackoff(attempt);
+                    sleepBackoff(retry);
                 }
             });
         });
     m_cache.trim(context->blobs);
     context->scene = farm::loadJobScene(directory, scenePath, job.settings().integrator_override());
-    log("loaded job " + std::to_string(job.job_id()) + ": " + context->scene->toString());
+    logInfo("job.loaded", {field("job", job.job_id()), field("scene", bundle.scenePath),
+                           field("description", context->scene->toString())});
     m_job = std::move(context);
     return *m_job;
 }
@@ -262,6 +277,7 @@ const std::vector<std::shared_ptr<const PassData>>& Worker::passDataFor(JobConte
 std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse& lease) {
     crashIfTestHookMatches(lease);
     delayIfTestHookSet();
+    if (m_options.beforeRender) m_options.beforeRender(lease);
     Result result;
     v1::ResultChunk& header = result.header;
     header.set_worker_id(m_workerId);
@@ -281,8 +297,9 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
         if (!complete) {
             std::lock_guard lock(m_leaseMutex);
             if (m_fencedLeases.count(lease.lease_id())) {
-                log("dropped unit " + std::to_string(unit.passBegin) + ".. of job " +
-                    std::to_string(job.jobId) + ": the coordinator fenced its lease");
+                logInfo("unit.dropped",
+                        {field("job", job.jobId), field("unit", lease.unit().unit_index()),
+                         field("lease", lease.lease_id()), field("reason", "fenced")});
                 return std::nullopt;
             }
             header.set_handed_back(true);  // stopping: give the unit back unrendered
@@ -298,10 +315,12 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
         header.set_compressed_sha256(farm::sha256Hex(result.compressed));
         const double seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        log("rendered job " + std::to_string(job.jobId) + " unit " +
-            std::to_string(lease.unit().unit_index()) + " in " + std::to_string(seconds) + " s");
+        logInfo("unit.rendered", {field("job", job.jobId), field("unit", lease.unit().unit_index()),
+                                  field("seconds", seconds)});
     } catch (const std::exception& e) {
-        log(std::string("unit failed: ") + e.what());
+        logWarning("unit.failed",
+                   {field("job", lease.unit().job_id()), field("unit", lease.unit().unit_index()),
+                    field("error", e.what())});
         // The error reaches the job's owner: it names files by bundle path, never this
         // machine's directories.
         const std::string cache =
@@ -314,7 +333,7 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
 }
 
 bool Worker::deliver(Result& result) {
-    int attempt = 0;
+    farm::RetryPolicy retry = makeRetryPolicy();
     const auto firstTry = std::chrono::steady_clock::now();
     const auto giveUpAt =
         firstTry + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -329,18 +348,20 @@ bool Worker::deliver(Result& result) {
             try {
                 registerWithCoordinator();
             } catch (const Error& e) {
-                log(e.what());
+                logWarning("result.abandoned",
+                           {field("job", result.header.job_id()),
+                            field("unit", result.header.unit_index()), field("error", e.what())});
                 return false;
             }
             result.header.set_worker_id(m_workerId);
         }
         // The call waits for a coordinator that is away (restarting) and goes out the moment it
         // is back; when stopping, no longer than the drain time left.
-        auto timeout = std::chrono::milliseconds(120s);
+        auto timeout = m_options.deliverTimeout;
         if (m_stopRequests > 0)
             timeout = std::clamp(std::chrono::duration_cast<std::chrono::milliseconds>(
                                      giveUpAt - std::chrono::steady_clock::now()),
-                                 std::chrono::milliseconds(1000), timeout);
+                                 std::min(std::chrono::milliseconds(1000), timeout), timeout);
         auto ctx = context(timeout);
         v1::ReportResultResponse response;
         auto writer = m_stub->ReportResult(ctx.get(), &response);
@@ -362,41 +383,45 @@ bool Worker::deliver(Result& result) {
         if (!writeFailed) writer->WritesDone();
         grpc::Status status = writer->Finish();
         if (status.ok()) {
-            if (attempt > 0)
-                log("delivered unit " + std::to_string(result.header.unit_index()) + " of job " +
-                    std::to_string(result.header.job_id()) + " after " + std::to_string(attempt) +
-                    " failed attempts (" +
-                    std::to_string(
-                        std::chrono::duration<double>(std::chrono::steady_clock::now() - firstTry)
-                            .count()) +
-                    " s)");
+            if (retry.failures() > 0)
+                logInfo("result.delivered_late",
+                        {field("job", result.header.job_id()),
+                         field("unit", result.header.unit_index()),
+                         field("failed_attempts", retry.failures()),
+                         field("seconds", std::chrono::duration<double>(
+                                              std::chrono::steady_clock::now() - firstTry)
+                                              .count())});
             if (response.disposition() == v1::RESULT_DISCARDED)
-                log("the coordinator discarded unit " + std::to_string(result.header.unit_index()) +
-                    " of job " + std::to_string(result.header.job_id()) +
-                    " (merged already or reassigned)");
+                logInfo("result.discarded", {field("job", result.header.job_id()),
+                                             field("unit", result.header.unit_index()),
+                                             field("reason", "merged already or reassigned")});
             return true;
         }
-        if (status.error_code() == grpc::StatusCode::NOT_FOUND &&
-            status.error_message().find("unknown worker") != std::string::npos) {
+        if (unknownWorker(status, false)) {
             m_mustRegister = true;
             continue;
         }
-        if (!transient(status)) {
-            log("the coordinator refused a result: " + status.error_message());
+        if (!farm::isTransient(status)) {
+            // UNKNOWN_JOB (removed after it ended) and any other refusal: nobody wants it.
+            logWarning("result.refused", {field("job", result.header.job_id()),
+                                          field("unit", result.header.unit_index()),
+                                          field("error", status.error_message())});
             return true;
         }
         if (m_stopRequests > 0 && std::chrono::steady_clock::now() > giveUpAt) return false;
-        if (attempt == 0)
-            log("cannot deliver the result (" + status.error_message() +
-                "); keeping it and retrying");
-        sleepBackoff(attempt);
+        if (retry.failures() == 0)
+            logWarning("result.undelivered", {field("job", result.header.job_id()),
+                                              field("unit", result.header.unit_index()),
+                                              field("error", status.error_message()),
+                                              field("action", "keeping it and retrying")});
+        sleepBackoff(retry);
     }
 }
 
 int Worker::run() {
     registerWithCoordinator();
     m_heartbeat = std::thread([this] { heartbeatLoop(); });
-    int attempt = 0;
+    farm::RetryPolicy retry = makeRetryPolicy();
     while (m_stopRequests == 0) {
         if (m_mustRegister) {
             registerWithCoordinator();
@@ -405,7 +430,7 @@ int Worker::run() {
         v1::AcquireWorkRequest request;
         request.set_worker_id(m_workerId);
         v1::AcquireWorkResponse lease;
-        auto ctx = context(10s);
+        auto ctx = context(m_options.acquireTimeout);
         {
             std::lock_guard lock(m_leaseMutex);
             if (m_stopRequests > 0) break;
@@ -418,20 +443,22 @@ int Worker::run() {
         }
         if (m_stopRequests > 0 && status.error_code() == grpc::StatusCode::CANCELLED) break;
         if (!status.ok()) {
-            if (status.error_code() == grpc::StatusCode::NOT_FOUND) {
+            if (unknownWorker(status, true)) {
                 m_mustRegister = true;
                 continue;
             }
-            if (!transient(status))
+            if (!farm::isTransient(status))
                 fail("the coordinator refused AcquireWork: %s", status.error_message());
-            if (attempt == 0)
-                log("coordinator unavailable (" + status.error_message() +
-                    "); retrying with backoff");
-            sleepBackoff(attempt);
+            if (retry.failures() == 0)
+                logWarning("coordinator.unavailable",
+                           {field("rpc", "AcquireWork"), field("error", status.error_message()),
+                            field("action", "retrying with backoff")});
+            sleepBackoff(retry);
             continue;
         }
-        if (attempt > 0) log("the coordinator answers again");
-        attempt = 0;
+        if (retry.failures() > 0)
+            logInfo("coordinator.back", {field("failed_attempts", retry.failures())});
+        retry.reset();
         if (!lease.has_work()) continue;
         {
             std::lock_guard lock(m_leaseMutex);
@@ -453,7 +480,7 @@ int Worker::run() {
         m_activeLeases.erase(lease.lease_id());
         m_fencedLeases.erase(lease.lease_id());
     }
-    log("drained; exiting");
+    logInfo("worker.drained", {field("worker", m_workerId.load())});
     return 0;
 }
 

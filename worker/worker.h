@@ -2,18 +2,24 @@
 // unit with renderUnit() on all cores while a second thread heartbeats, deliver the result in
 // chunks (retrying through coordinator outages), repeat. SIGTERM drains: no new work, the
 // current unit is finished and delivered (a second SIGTERM hands it back), then exit 0.
+// A library (alphorn_worker) so that worker_test.cpp can run it against a scripted coordinator;
+// main.cpp only parses flags and forwards signals.
 #pragma once
 
 #include "alphorn/v1/worker_service.grpc.pb.h"
+#include "common/farm/retry_policy.h"
 #include "common/render/unit.h"
 #include "worker/blob_cache.h"
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <thread>
 
 namespace alphorn {
@@ -31,6 +37,21 @@ struct WorkerOptions {
     int threads = 0;  // 0: all cores
     uint64_t cacheBytes = uint64_t(4) << 30;
     double drainSeconds = 60.0;  // how long a draining worker keeps trying to deliver
+
+    // Waits between attempts at a call that failed for a transient reason. The seed makes the
+    // jitter reproducible; 0 draws one at random, so the workers of a farm spread apart.
+    farm::RetryTimings retry;
+    uint64_t retrySeed = 0;
+    // How long each call may wait for an unreachable coordinator before it counts as a failed
+    // attempt (calls wait for the coordinator to come back, see farm::makeContext).
+    std::chrono::milliseconds registerTimeout{5000};
+    std::chrono::milliseconds acquireTimeout{10000};
+    std::chrono::milliseconds deliverTimeout{120000};
+    // Called with each backoff delay before the worker waits it out (tests watch the policy).
+    std::function<void(std::chrono::milliseconds)> onBackoff;
+    // Called on the rendering thread after a unit is leased and before it is rendered (tests
+    // hold a unit there while they look at heartbeats).
+    std::function<void(const v1::AcquireWorkResponse&)> beforeRender;
 };
 
 class Worker {
@@ -70,7 +91,9 @@ class Worker {
     // Delivers until the coordinator answers (merged, discarded or refused) or the lease is
     // fenced; keeps the result through outages. Returns false when it had to give up (draining).
     bool deliver(Result& result);
-    void sleepBackoff(int& attempt);
+    // Waits the policy's next delay; returns early when the unit is being abandoned.
+    void sleepBackoff(farm::RetryPolicy& policy);
+    farm::RetryPolicy makeRetryPolicy();
     std::unique_ptr<grpc::ClientContext> context(std::chrono::milliseconds timeout) const;
 
     WorkerOptions m_options;
@@ -82,7 +105,9 @@ class Worker {
     std::atomic<uint64_t> m_workerId{0};
     std::atomic<int> m_stopRequests{0};
     std::atomic<bool> m_mustRegister{true};
-    double m_heartbeatSeconds = 2.0;
+    std::atomic<double> m_heartbeatSeconds{2.0};
+    uint64_t m_retrySeed = 0;
+    std::atomic<uint64_t> m_retryPolicies{0};  // policies made so far: each gets its own stream
 
     // Leases being worked on (rendering or delivering), shared with the heartbeat thread.
     std::mutex m_leaseMutex;

@@ -1,8 +1,44 @@
 #include "common/core/properties.h"
 
+#include <absl/strings/ascii.h>
+
+#include <algorithm>
 #include <filesystem>
 
 namespace alphorn {
+
+std::string closestName(const std::string& word, const std::vector<std::string>& candidates) {
+    // Nobody misspells a name this long; and it keeps a hostile scene from costing
+    // length x length work.
+    if (word.size() > 256) return "";
+    const std::string a = absl::AsciiStrToLower(word);
+    const size_t allowed = std::max<size_t>(1, a.size() / 3);
+    std::string best;
+    size_t bestDistance = allowed + 1;
+    for (const std::string& candidate : candidates) {
+        // The distance is at least the difference in length.
+        if (candidate == word || candidate.size() > a.size() + allowed ||
+            a.size() > candidate.size() + allowed)
+            continue;
+        const std::string b = absl::AsciiStrToLower(candidate);
+        // Optimal string alignment distance over a (|a|+1) x (|b|+1) table.
+        std::vector<std::vector<size_t>> d(a.size() + 1, std::vector<size_t>(b.size() + 1));
+        for (size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+        for (size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+        for (size_t i = 1; i <= a.size(); ++i)
+            for (size_t j = 1; j <= b.size(); ++j) {
+                d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1,
+                                    d[i - 1][j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+                if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1])
+                    d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+            }
+        if (d[a.size()][b.size()] < bestDistance) {
+            bestDistance = d[a.size()][b.size()];
+            best = candidate;
+        }
+    }
+    return best;
+}
 
 static const char* typeName(PropertyList::Type type) {
     switch (type) {
@@ -32,6 +68,7 @@ void PropertyList::set(const std::string& name, Type type, Value value) {
 }
 
 const PropertyList::Entry* PropertyList::find(const std::string& name, Type type) const {
+    m_requested.insert(name);
     auto it = m_values.find(name);
     if (it == m_values.end()) return nullptr;
     m_used.insert(name);
@@ -43,7 +80,18 @@ const PropertyList::Entry* PropertyList::find(const std::string& name, Type type
 
 const PropertyList::Entry& PropertyList::get(const std::string& name, Type type) const {
     const Entry* entry = find(name, type);
-    if (!entry) fail("missing required %s property \"%s\"", typeName(type), name);
+    if (!entry) {
+        // A required property written with a typo shows up here first, before the parser
+        // reports the misspelt name as unused.
+        std::vector<std::string> unread;
+        for (const auto& [given, ignored] : m_values)
+            if (!m_used.count(given)) unread.push_back(given);
+        const std::string typo = closestName(name, unread);
+        if (!typo.empty())
+            fail("missing required %s property \"%s\" (is \"%s\" a misspelling of it?)",
+                 typeName(type), name, typo);
+        fail("missing required %s property \"%s\"", typeName(type), name);
+    }
     return *entry;
 }
 

@@ -24,6 +24,11 @@ struct FileReferencePolicy {
     std::string confinementRoot;
 };
 
+// The candidate closest to `word` by edit distance (insertions, deletions, substitutions and swaps
+// of neighbouring letters, ignoring case), for "did you mean" hints; empty when none is close:
+// at most one edit per three letters of `word`, and at least one edit allowed.
+std::string closestName(const std::string& word, const std::vector<std::string>& candidates);
+
 class PropertyList {
   public:
     enum class Type { Boolean, Integer, Float, String, Color, Point, Vector, Transform };
@@ -66,6 +71,11 @@ class PropertyList {
 
     bool has(const std::string& name) const { return m_values.count(name) != 0; }
     std::vector<std::string> unusedNames() const;
+    // Every name a getter asked for, given or not: what the plugin understands, for suggesting
+    // the intended name of an unused (misspelt) one.
+    std::vector<std::string> requestedNames() const {
+        return {m_requested.begin(), m_requested.end()};
+    }
 
     // Where this list was written, e.g. "scene.xml:12 (bsdf type=\"diffuse\")".
     const std::string& source() const { return m_source; }
@@ -99,6 +109,7 @@ class PropertyList {
 
     std::map<std::string, Entry> m_values;
     mutable std::set<std::string> m_used;
+    mutable std::set<std::string> m_requested;
     std::string m_source = "<unknown>";
     std::string m_baseDirectory;
     FileReferencePolicy m_filePolicy;

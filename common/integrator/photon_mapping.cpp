@@ -6,7 +6,8 @@
 
 namespace alphorn {
 
-PhotonMappingIntegrator::PhotonMappingIntegrator(const PropertyList& props) {
+PhotonMappingIntegrator::PhotonMappingIntegrator(const PropertyList& props,
+                                                 const char* defaultDirectLight) {
     // Nori's default photon count; photon paths EMITTED per photon pass (see docs).
     const int count = props.getInteger("photonCount", 1000000);
     if (count <= 0)
@@ -26,12 +27,10 @@ PhotonMappingIntegrator::PhotonMappingIntegrator(const PropertyList& props) {
         props.fail("\"alpha\" must be in (0, 1) (the fraction of photons kept per pass), got %g",
                    alpha);
     m_alpha = alpha;
-    // kNN radii adapt to each pass's photons; averaging passes of a kNN estimate does not
-    // converge, so progressive mode needs a fixed radius to shrink.
-    if (m_progressive && m_surfaceK > 0)
-        props.fail(
-            "\"progressive\" shrinks a fixed radius: use \"surfacePhotonRadius\", not "
-            "\"surfaceK\"");
+    const std::string directLight = props.getString("directLight", defaultDirectLight);
+    if (directLight != "photons" && directLight != "nee")
+        props.fail("\"directLight\" must be \"photons\" or \"nee\", got \"%s\"", directLight);
+    m_sampleDirectLight = directLight == "nee";
 }
 
 float PhotonMappingIntegrator::sceneDiagonal(const Scene& scene) {
@@ -65,7 +64,8 @@ std::shared_ptr<const PassData> PhotonMappingIntegrator::preparePass(const Scene
 }
 
 std::optional<RadiusSchedule> PhotonMappingIntegrator::radiusSchedule() const {
-    if (!m_progressive) return std::nullopt;
+    // Progress lines show the surface gather radius; kNN radii have no one value to show.
+    if (!m_progressive || m_surfaceK > 0) return std::nullopt;
     return RadiusSchedule{m_surfaceRadius, m_alpha};
 }
 
@@ -74,16 +74,60 @@ float PhotonMappingIntegrator::passRadius(float initialRadius, uint64_t pass) co
                          : initialRadius;
 }
 
+float PhotonMappingIntegrator::passRadiusScale(uint64_t pass) const {
+    return m_progressive ? static_cast<float>(progressiveRadius(1.0, m_alpha, pass)) : 1.0f;
+}
+
 void PhotonMappingIntegrator::setSurfaceMap(PhotonPassData& data, std::vector<Photon> photons,
                                             uint64_t emitted, uint64_t pass) const {
-    const float radius = passRadius(m_surfaceRadius, pass);
+    // kNN maps keep the search radius as given: progressive mode shrinks each query's kNN
+    // radius instead (surfaceRadiusScale).
+    const float radius = m_surfaceK > 0 ? m_surfaceRadius : passRadius(m_surfaceRadius, pass);
     data.surface =
         PhotonMap(std::move(photons),
                   m_surfaceK > 0 ? PhotonMap::Lookup::Nearest : PhotonMap::Lookup::Radius, radius);
     data.emitted = emitted;
     data.powerScale = emitted > 0 ? 1.0 / static_cast<double>(emitted) : 0.0;
     data.surfaceRadius = radius;
+    data.surfaceRadiusScale = m_surfaceK > 0 ? passRadiusScale(pass) : 1.0f;
 }
+
+namespace {
+
+// The k-nearest-neighbour estimate of progressive mode: with R the distance to the k-th nearest
+// photon of the pass (or the search radius when fewer than k lie within it), the photons within
+// s R, divided by π (s R)², where s = r_pass / r_0 is the Knaus–Zwicker factor shared with the
+// fixed radii. For s = 1 it is nearestNeighbourEstimate() (density_estimate.h). Why it converges
+// where averaging passes of that estimate does not: the photon mass M within R is a Beta(k,
+// n − k + 1) variate (n photons) whatever the density's shape, so E[(k − 1) / M] = 1 exactly;
+// given R, the k − 1 nearer photons fall inside the disk by the density, a fraction of them
+// inside the inner disk of radius s R, so the estimate's expectation is the density's mean over
+// the inner disk — whose blur vanishes as s shrinks, while the variance of the pass average
+// falls as for fixed radii (the inner disk holds about (k − 1) s² photons, as a fixed radius r_i
+// does r_i² / r_0²).
+template <typename Weight>
+Color3f shrunkNearestNeighbourEstimate(const PhotonMap& map, const Point3f& x, size_t k,
+                                       float maxRadius, float scale, Weight&& weight) {
+    thread_local std::vector<PhotonNeighbor> neighbors;
+    if (neighbors.size() < k) neighbors.resize(k);
+    const size_t found = map.nearest(x, k, maxRadius, neighbors.data());
+    const std::vector<Photon>& photons = map.photons();
+    double radius2 = double(maxRadius) * double(maxRadius);
+    size_t candidates = found;
+    if (found == k && neighbors[k - 1].distance2 > 0.0f) {
+        candidates = k - 1;
+        radius2 = neighbors[k - 1].distance2;
+    }
+    const double scaled2 = double(scale) * double(scale) * radius2;
+    Color3f sum(0.0f);
+    // Closest first: the photons inside the inner disk are a prefix.
+    for (size_t i = 0; i < candidates && double(neighbors[i].distance2) <= scaled2; ++i)
+        sum += weight(photons[neighbors[i].index]);
+    if (sum.isBlack()) return sum;
+    return sum * static_cast<float>(1.0 / (M_PI * scaled2));
+}
+
+}  // namespace
 
 std::optional<Vector3f> PhotonMappingIntegrator::followDeltaChain(const Intersection& its,
                                                                   const Vector3f& wi, int depth,
@@ -114,11 +158,15 @@ Color3f PhotonMappingIntegrator::reflectedRadiance(const PhotonPassData& data,
         rec.wo = its.toLocal(photon.direction);
         return Color3f(bsdf.eval(rec) * photon.power);
     };
-    const Color3f density =
-        m_surfaceK > 0
-            ? nearestNeighbourEstimate(data.surface, its.p, static_cast<size_t>(m_surfaceK),
-                                       data.surfaceRadius, weight)
-            : fixedRadiusEstimate(data.surface, its.p, data.surfaceRadius, weight);
+    const size_t k = static_cast<size_t>(m_surfaceK);
+    Color3f density;
+    if (m_surfaceK == 0)
+        density = fixedRadiusEstimate(data.surface, its.p, data.surfaceRadius, weight);
+    else if (data.surfaceRadiusScale == 1.0f)
+        density = nearestNeighbourEstimate(data.surface, its.p, k, data.surfaceRadius, weight);
+    else
+        density = shrunkNearestNeighbourEstimate(data.surface, its.p, k, data.surfaceRadius,
+                                                 data.surfaceRadiusScale, weight);
     return density * static_cast<float>(data.powerScale);
 }
 

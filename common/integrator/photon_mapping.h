@@ -1,5 +1,6 @@
 // What photonmapper and volumetric_photonmapper share: the surface photon map's parameters
-// (`photonCount`, `surfacePhotonRadius`, `surfaceK`, `progressive`, `alpha`), the pass data
+// (`photonCount`, `surfacePhotonRadius`, `surfaceK`, `progressive`, `alpha`), how direct light
+// reaches the first non-delta surface (`directLight`), the pass data
 // (one cached map per seed, or in progressive mode each pass's own photons at its radius from
 // the one shared schedule), the radius schedule for progress reports, and the surface density
 // estimate. Each integrator adds only how it traces photons and how camera paths gather.
@@ -7,6 +8,7 @@
 
 #include "common/integrator/integrator.h"
 #include "common/photon/photon_pass.h"
+#include "common/photon/photon_tracer.h"
 
 #include <mutex>
 
@@ -26,7 +28,9 @@ class PhotonMappingIntegrator : public Integrator {
     std::optional<RadiusSchedule> radiusSchedule() const override;
 
   protected:
-    explicit PhotonMappingIntegrator(const PropertyList& props);
+    // `defaultDirectLight`: the `directLight` mode when the scene gives none ("nee" or
+    // "photons").
+    PhotonMappingIntegrator(const PropertyList& props, const char* defaultDirectLight);
 
     // Traces the photons of `pass` (pass 0 for the one map of non-progressive mode) and builds
     // its maps; must be a pure function of (scene, seed, pass).
@@ -35,6 +39,16 @@ class PhotonMappingIntegrator : public Integrator {
     // The gather radius of `pass` for a map whose first pass uses `initialRadius`: shrunk by
     // the Knaus–Zwicker schedule in progressive mode, constant otherwise.
     float passRadius(float initialRadius, uint64_t pass) const;
+    // r_pass / r_0 of that schedule (1 without `progressive`): the factor by which progressive
+    // mode shrinks the radii that k nearest neighbours give (see photon_mapping.cpp).
+    float passRadiusScale(uint64_t pass) const;
+    // Whether the camera path's first non-delta surface samples the lights (next-event
+    // estimation): then the photon tracer must skip the photons of light arriving there
+    // directly, which would otherwise count twice.
+    bool samplesDirectLight() const { return m_sampleDirectLight; }
+    DirectPhotons directPhotons() const {
+        return m_sampleDirectLight ? DirectPhotons::Skip : DirectPhotons::Store;
+    }
     // Fills `data`'s surface map from `photons`, whose paths numbered `emitted`.
     void setSurfaceMap(PhotonPassData& data, std::vector<Photon> photons, uint64_t emitted,
                        uint64_t pass) const;
@@ -58,6 +72,7 @@ class PhotonMappingIntegrator : public Integrator {
     int m_surfaceK;          // 0: fixed radius
     bool m_progressive;
     double m_alpha;
+    bool m_sampleDirectLight;  // `directLight` "nee"; false for "photons"
 
   private:
     float m_surfaceRadius;

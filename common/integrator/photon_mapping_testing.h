@@ -40,6 +40,8 @@ inline std::string floating(const std::string& name, const std::string& value) {
     return "<float name=\"" + name + "\" value=\"" + value + "\"/>";
 }
 inline const std::string kProgressive = "<boolean name=\"progressive\" value=\"true\"/>";
+// directLight "photons": photons carry all direct light (the volumetric photon mapper's default).
+inline const std::string kDirectFromPhotons = "<string name=\"directLight\" value=\"photons\"/>";
 
 inline const PhotonPassData& passData(const std::shared_ptr<const PassData>& data) {
     return photonPassData(data.get());

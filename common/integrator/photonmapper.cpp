@@ -6,15 +6,26 @@
 // their power is divided by the number emitted, never by the number stored.
 // Camera paths: from the camera through any chain of delta (mirror, glass, null) surfaces to the
 // first non-delta hit, where the reflected radiance is the photon density estimate, and
-// emission is added wherever the path hits an emitter. Direct light is counted exactly once:
-// photons carry all of it (no next-event estimation), so the image is the photon estimate plus
-// the emitters seen directly or through delta surfaces.
+// emission is added wherever the path hits an emitter. Direct light is counted exactly once,
+// by one of two means (`directLight`):
+// - "photons": photons carry all of it, so the image is the photon estimate plus the emitters
+//   seen directly or through delta surfaces;
+// - "nee" (the default): the first non-delta hit samples one light (next-event estimation,
+//   sampleDirect() of the path tracers, without MIS: the path ends there, so no BSDF sample
+//   could find the light), and the photon tracer skips each path's photon of light that reached
+//   a surface without scattering on the way. Light → mirror/glass → diffuse paths (caustics)
+//   still come from photons; a null surface between light and point blocks the shadow ray and
+//   counts as a scattering event for the photon, so those paths also stay with the photons.
+//   Fewer photons are stored (none of direct light), which makes a pass cheaper, and the
+//   direct light's edges are sampled sharply where a density estimate blurs them.
 //
 // Passes: without `progressive`, every pass reads one photon map, traced once per (scene, seed)
 // from pass 0's photon streams, with a fixed radius or k nearest neighbours; more passes
 // average camera noise only (classic photon mapping). With `progressive`, pass i traces its own
 // photons (streams of pass i) and gathers at r_i from the one shared schedule
-// (common/photon/radius_schedule.h); the image, the average of the passes, converges.
+// (common/photon/radius_schedule.h); the image, the average of the passes, converges. With
+// `surfaceK` too, each query's kNN radius is shrunk by the same factor r_i / r_0 (see
+// photon_mapping.cpp), which converges as well.
 #include "common/integrator/direct.h"
 #include "common/integrator/photon_mapping.h"
 #include "common/photon/photon_tracer.h"
@@ -25,7 +36,9 @@ namespace alphorn {
 
 class PhotonMapper : public PhotonMappingIntegrator {
   public:
-    explicit PhotonMapper(const PropertyList& props) : PhotonMappingIntegrator(props) {}
+    // Next-event estimation by default: at equal time it measured ahead of photon-carried direct
+    // light on the Cornell box and the caustic (bench/photon_direct_light.cpp, bench/RESULTS.md).
+    explicit PhotonMapper(const PropertyList& props) : PhotonMappingIntegrator(props, "nee") {}
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
                const PassData* passData) const override {
@@ -42,6 +55,8 @@ class PhotonMapper : public PhotonMappingIntegrator {
             const Vector3f wi = its.toLocal(-dir);
             if (bsdf.isDiffuse()) {
                 result += throughput * reflectedRadiance(data, its, bsdf, wi);
+                if (samplesDirectLight())
+                    result += throughput * sampleDirect(scene, sampler, its, bsdf, wi, false);
                 break;
             }
             const auto wo = followDeltaChain(its, wi, depth, sampler, throughput, etaScale);
@@ -53,16 +68,17 @@ class PhotonMapper : public PhotonMappingIntegrator {
 
     std::string toString() const override {
         return absl::StrFormat(
-            "photonmapper (%u photons per pass, %s, radius %g%s)", m_photonCount,
+            "photonmapper (%u photons per pass, %s, radius %g%s, direct light %s)", m_photonCount,
             m_surfaceK > 0 ? absl::StrFormat("%d nearest neighbours", m_surfaceK) : "fixed radius",
             surfaceRadius(),
-            m_progressive ? absl::StrFormat(", progressive, alpha %g", m_alpha) : "");
+            m_progressive ? absl::StrFormat(", progressive, alpha %g", m_alpha) : "",
+            samplesDirectLight() ? "sampled" : "from photons");
     }
 
   private:
     std::shared_ptr<const PhotonPassData> tracePass(const Scene& scene, uint64_t seed,
                                                     uint64_t pass) const override {
-        TracedPhotons traced = tracePhotons(scene, seed, pass, m_photonCount);
+        TracedPhotons traced = tracePhotons(scene, seed, pass, m_photonCount, directPhotons());
         auto data = std::make_shared<PhotonPassData>();
         setSurfaceMap(*data, std::move(traced.surface), traced.emitted, pass);
         return data;

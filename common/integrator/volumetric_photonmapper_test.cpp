@@ -1,11 +1,13 @@
 // The volumetric_photonmapper integrator's pass data and stability: no volume map without media,
-// one count per map, both radii on the shared schedule, and finite, not inflated, estimates
+// one count per map, both radii on the shared schedule (fixed radii and kNN radii alike), which
+// photons next-event estimation leaves out, and finite, not inflated, estimates
 // where density estimation fails (no photons; fewer volume photons than k). Its accuracy is
 // tested by tests/statistical/volumetric_photonmapper_*_ttest.xml.
 #include "common/core/rng.h"
 #include "common/integrator/integrator.h"
 #include "common/integrator/photon_mapping_testing.h"
 #include "common/photon/photon_pass.h"
+#include "common/photon/photon_tracer.h"
 #include "common/photon/radius_schedule.h"
 #include "common/render/local_render.h"
 #include "common/scene/parser.h"
@@ -114,6 +116,67 @@ TEST_F(VolumetricPhotonMapperTest, FewerVolumePhotonsThanKUseTheLargestRadius) {
     // photons seen: the attenuated emission alone is < 0.37
     const int lit = countLitWhileComparing(*knn, knnPass.get(), *fixed, fixedPass.get(), 200, 0.5f);
     EXPECT_GT(lit, 20) << "too few rays lit: the comparison is vacuous";
+}
+
+TEST_F(VolumetricPhotonMapperTest, ProgressiveKnnRadiiShrinkByTheSchedule) {
+    // Progressive mode with volumeK (and surfaceK) is accepted; pass p's volume photons get their
+    // kNN radii (at most volumePhotonRadius) times r_p / r_0 of the shared schedule; the surface
+    // search radius stays as given and carries the same factor.
+    const std::string params = integer("photonCount", 3000) + integer("volumeK", 10) +
+                               integer("surfaceK", 10) + floating("volumePhotonRadius", "0.4") +
+                               floating("surfacePhotonRadius", "0.5") + floating("alpha", "0.7");
+    auto progressive = load(params + kProgressive, furnace(kFog));
+    const Integrator& integrator = *progressive->integrator();
+    EXPECT_FALSE(integrator.radiusSchedule().has_value()) << "kNN radii have no one value";
+    for (uint64_t pass : {0, 3, 100}) {
+        const auto owner = integrator.preparePass(*progressive, 4, pass);
+        const PhotonPassData& data = passData(owner);
+        const float scale = static_cast<float>(progressiveRadius(1.0, 0.7f, pass));
+        EXPECT_EQ(data.surfaceRadius, 0.5f);
+        EXPECT_EQ(data.surfaceRadiusScale, scale);
+        // The same photons indexed without the schedule.
+        TracedPhotons traced = tracePhotonsThroughMedia(*progressive, 4, pass, 3000, 3000);
+        ASSERT_EQ(traced.volume.size(), data.volume.size());
+        ASSERT_GT(traced.volume.size(), 100u);
+        const VolumePhotonMap unscaled(std::move(traced.volume), std::move(traced.volumeMedia), 10,
+                                       0.4f);
+        int shrunk = 0;
+        for (uint32_t i = 0; i < data.volume.size(); ++i) {
+            EXPECT_EQ(data.volume.radius(i), unscaled.radius(i) * scale) << pass << " " << i;
+            shrunk += unscaled.radius(i) < 0.4f;
+        }
+        EXPECT_GT(shrunk, 100) << "no photon had k neighbours: the test is vacuous";
+    }
+}
+
+TEST_F(VolumetricPhotonMapperTest, SampledDirectLightLeavesOutOnlyUnscatteredSurfacePhotons) {
+    // In the fog-filled furnace, directLight "nee" keeps every volume photon and those surface
+    // photons whose light scattered before (in the fog or at a wall): a subsequence of the
+    // "photons" map from the same streams, shorter by the photons emitted by one wall that
+    // reach another without scattering.
+    const std::string params =
+        integer("photonCount", 2000) + floating("surfacePhotonRadius", "0.2");
+    auto all = load(params, furnace(kFog));
+    auto indirect = load(params + "<string name=\"directLight\" value=\"nee\"/>", furnace(kFog));
+    const auto allOwner = all->integrator()->preparePass(*all, 6, 0);
+    const auto indirectOwner = indirect->integrator()->preparePass(*indirect, 6, 0);
+    const PhotonPassData& a = passData(allOwner);
+    const PhotonPassData& b = passData(indirectOwner);
+    ASSERT_EQ(a.volume.size(), b.volume.size());
+    EXPECT_EQ(std::memcmp(a.volume.photons().data(), b.volume.photons().data(),
+                          a.volume.size() * sizeof(Photon)),
+              0);
+    const std::vector<Photon>& full = a.surface.photons();
+    const std::vector<Photon>& kept = b.surface.photons();
+    // Fog of sigmaS 1 in a box of side 2: about a third of the light crosses it unscattered.
+    EXPECT_LT(kept.size(), full.size() - 300);
+    EXPECT_GT(kept.size(), full.size() / 3);
+    size_t next = 0;
+    for (const Photon& photon : kept) {
+        while (next < full.size() && std::memcmp(&full[next], &photon, sizeof(Photon)) != 0) ++next;
+        ASSERT_LT(next, full.size()) << "a kept photon is not in the full map, or out of order";
+        ++next;
+    }
 }
 
 }  // namespace

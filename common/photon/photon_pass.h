@@ -15,6 +15,8 @@ struct PhotonPassData : PassData {
     double powerScale = 0.0;  // 1 / photons emitted in the pass (64-bit count, in double)
     uint64_t emitted = 0;
     float surfaceRadius = 0.0f;  // the pass's gather radius, or the kNN search radius
+    // Progressive kNN maps: the factor r_pass / r_0 by which each query's kNN radius shrinks.
+    float surfaceRadiusScale = 1.0f;
     // The volumetric photon mapper's volume photons with the beam estimate's index (empty for
     // the surface photon mapper and for scenes without media), normalised by their own count.
     VolumePhotonMap volume;

@@ -34,7 +34,8 @@ bool emitPhoton(const Scene& scene, Sampler& sampler, Ray3f& ray, Color3f& flux,
 }
 
 // Follows one photon path, appending the photons it stores to `out`.
-void tracePhoton(const Scene& scene, Sampler& sampler, std::vector<Photon>& out) {
+void tracePhoton(const Scene& scene, Sampler& sampler, DirectPhotons direct,
+                 std::vector<Photon>& out) {
     Ray3f ray;
     Color3f flux;
     if (!emitPhoton(scene, sampler, ray, flux)) return;
@@ -43,6 +44,7 @@ void tracePhoton(const Scene& scene, Sampler& sampler, std::vector<Photon>& out)
     // near 1, so the photons of a map carry nearly equal power (the best case for a density
     // estimate); 0.99 bounds the path length in closed scenes of albedo 1 (mirror boxes).
     Color3f throughput(1.0f);
+    bool scattered = false;  // by any surface, null ones included (they block shadow rays)
     for (;;) {
         Intersection its;
         if (!scene.rayIntersect(ray, its)) return;
@@ -50,7 +52,9 @@ void tracePhoton(const Scene& scene, Sampler& sampler, std::vector<Photon>& out)
         const BSDF& bsdf = *its.mesh->bsdf();
         // Delta surfaces cannot be reached by a density estimate's BSDF evaluation (their eval
         // is zero), so a photon stored there would only cost memory.
-        if (bsdf.isDiffuse()) out.push_back(Photon{its.p, -dir, flux * throughput});
+        if (bsdf.isDiffuse() && (scattered || direct == DirectPhotons::Store))
+            out.push_back(Photon{its.p, -dir, flux * throughput});
+        scattered = true;
 
         BSDFQueryRecord rec = makeBSDFQuery(its, its.toLocal(-dir));
         Color3f weight = bsdf.sample(rec, sampler.next2D());
@@ -136,7 +140,8 @@ struct PhotonOutputs {
 // from the light. The throughput carries spectral MIS for chromatic media (see MediumSample).
 void tracePhotonThroughMedia(const Scene& scene, Sampler& sampler,
                              const Eigen::AlignedBox3f& mediaBox,
-                             const StartMediumCache& startMedia, const PhotonOutputs& out) {
+                             const StartMediumCache& startMedia, DirectPhotons direct,
+                             const PhotonOutputs& out) {
     Ray3f emittedRay;
     Color3f flux;
     const Emitter* emitter = nullptr;
@@ -152,6 +157,7 @@ void tracePhotonThroughMedia(const Scene& scene, Sampler& sampler,
 
     SpectralThroughput path;
     Color3f& throughput = path.throughput;
+    bool scattered = false;  // by a medium or a non-null surface
     // Roulette after every scattering event, as tracePhoton() does: keeps photon powers near
     // equal and ends paths in closed scenes of albedo 1.
     auto survivesRoulette = [&]() {
@@ -176,6 +182,7 @@ void tracePhotonThroughMedia(const Scene& scene, Sampler& sampler,
                     out.volume->push_back(Photon{ms.p, -ray.d, flux * throughput});
                     out.volumeMedia->push_back(medium);
                 }
+                scattered = true;
                 Vector3f wo;
                 const float weight = medium->phase().sample(-ray.d, wo, sampler.next2D());
                 if (!(weight > 0.0f)) return;
@@ -194,8 +201,9 @@ void tracePhotonThroughMedia(const Scene& scene, Sampler& sampler,
             ray = Ray3f(its.p, dir, Epsilon, ray.maxt - its.t);
             continue;
         }
-        if (out.surface && bsdf.isDiffuse())
+        if (out.surface && bsdf.isDiffuse() && (scattered || direct == DirectPhotons::Store))
             out.surface->push_back(Photon{its.p, -dir, flux * throughput});
+        scattered = true;
 
         BSDFQueryRecord rec = makeBSDFQuery(its, its.toLocal(-dir));
         Color3f weight = bsdf.sample(rec, sampler.next2D());
@@ -226,7 +234,8 @@ std::vector<T> concatenate(std::vector<std::vector<T>>& chunks) {
 
 }  // namespace
 
-TracedPhotons tracePhotons(const Scene& scene, uint64_t seed, uint64_t pass, uint64_t count) {
+TracedPhotons tracePhotons(const Scene& scene, uint64_t seed, uint64_t pass, uint64_t count,
+                           DirectPhotons direct) {
     TracedPhotons result;
     result.emitted = count;
     if (count == 0 || scene.emitters().empty()) return result;
@@ -239,7 +248,7 @@ TracedPhotons tracePhotons(const Scene& scene, uint64_t seed, uint64_t pass, uin
         out.reserve(2 * (end - c * kChunk));  // most paths store one or two photons
         for (uint64_t i = c * kChunk; i < end; ++i) {
             sampler->startStream(seed, pass, i, StreamPurpose::Photon);
-            tracePhoton(scene, *sampler, out);
+            tracePhoton(scene, *sampler, direct, out);
         }
     });
     // Concatenate in chunk order: the map's content is the same for any scheduling.
@@ -248,7 +257,8 @@ TracedPhotons tracePhotons(const Scene& scene, uint64_t seed, uint64_t pass, uin
 }
 
 TracedPhotons tracePhotonsThroughMedia(const Scene& scene, uint64_t seed, uint64_t pass,
-                                       uint64_t surfaceCount, uint64_t volumeCount) {
+                                       uint64_t surfaceCount, uint64_t volumeCount,
+                                       DirectPhotons direct) {
     TracedPhotons result;
     result.emitted = surfaceCount;
     result.volumeEmitted = volumeCount;
@@ -270,7 +280,7 @@ TracedPhotons tracePhotonsThroughMedia(const Scene& scene, uint64_t seed, uint64
                 out.volume = &volume[c];
                 out.volumeMedia = &volumeMedia[c];
             }
-            tracePhotonThroughMedia(scene, *sampler, mediaBox, startMedia, out);
+            tracePhotonThroughMedia(scene, *sampler, mediaBox, startMedia, direct, out);
         }
     });
     result.surface = concatenate(surface);

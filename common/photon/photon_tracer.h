@@ -28,10 +28,18 @@ struct TracedPhotons {
     uint64_t volumeEmitted = 0;
 };
 
+// Whether a photon path stores its first surface photon when nothing scattered it on the way
+// from the light (light → non-delta surface, through media and null boundaries): integrators
+// that compute that direct light by next-event estimation skip it, so that their photons carry
+// indirect light only. Light that reaches a surface by a mirror, glass or a scattering event in
+// a medium (caustics included) is stored either way.
+enum class DirectPhotons { Store, Skip };
+
 // Emits `count` photons, each from an emitter chosen in proportion to its power and sampled by
 // that emitter's own samplePhoton(), and follows them with Russian roulette (no depth cap:
 // a cap biases bright closed scenes low). Runs in parallel over fixed chunks of photon indices.
-TracedPhotons tracePhotons(const Scene& scene, uint64_t seed, uint64_t pass, uint64_t count);
+TracedPhotons tracePhotons(const Scene& scene, uint64_t seed, uint64_t pass, uint64_t count,
+                           DirectPhotons direct = DirectPhotons::Store);
 
 // The same loop through participating media, for the volumetric photon mapper: photons start in
 // the medium around their emitter, cross null (index-matched) boundaries without an event, fly
@@ -43,6 +51,7 @@ TracedPhotons tracePhotons(const Scene& scene, uint64_t seed, uint64_t pass, uin
 // traced. Russian roulette at every event, no depth cap. `emitted` = surfaceCount and
 // `volumeEmitted` = volumeCount.
 TracedPhotons tracePhotonsThroughMedia(const Scene& scene, uint64_t seed, uint64_t pass,
-                                       uint64_t surfaceCount, uint64_t volumeCount);
+                                       uint64_t surfaceCount, uint64_t volumeCount,
+                                       DirectPhotons direct = DirectPhotons::Store);
 
 }  // namespace alphorn

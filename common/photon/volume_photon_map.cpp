@@ -14,7 +14,7 @@ VolumePhotonMap::VolumePhotonMap(std::vector<Photon> photons, std::vector<const 
 }
 
 VolumePhotonMap::VolumePhotonMap(std::vector<Photon> photons, std::vector<const Medium*> media,
-                                 size_t k, float maxRadius)
+                                 size_t k, float maxRadius, float radiusScale)
     : m_photons(std::move(photons)), m_media(std::move(media)) {
     m_radii.assign(m_photons.size(), maxRadius);
     if (m_photons.size() >= k && k > 0) {
@@ -29,6 +29,8 @@ VolumePhotonMap::VolumePhotonMap(std::vector<Photon> photons, std::vector<const 
                 m_radii[i] = std::sqrt(neighbors[k - 1].distance2);
         });
     }
+    if (radiusScale != 1.0f)
+        for (float& radius : m_radii) radius *= radiusScale;
     buildIndex();
 }
 

@@ -24,9 +24,10 @@ class VolumePhotonMap {
     VolumePhotonMap() = default;
     // Fixed radius for every photon. `media[i]` is the medium photon i scattered in (or empty).
     VolumePhotonMap(std::vector<Photon> photons, std::vector<const Medium*> media, float radius);
-    // Per-photon radius from the k nearest volume photons, at most maxRadius.
+    // Per-photon radius from the k nearest volume photons, at most maxRadius, times radiusScale
+    // (progressive mode's shrinking factor r_pass / r_0).
     VolumePhotonMap(std::vector<Photon> photons, std::vector<const Medium*> media, size_t k,
-                    float maxRadius);
+                    float maxRadius, float radiusScale = 1.0f);
     VolumePhotonMap(VolumePhotonMap&&) = default;
     VolumePhotonMap& operator=(VolumePhotonMap&&) = default;
 

@@ -4,6 +4,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include <cmath>
 #include <mutex>
 
 namespace alphorn {
@@ -12,12 +13,26 @@ FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
                       const ProgressCallback& progress, RenderCounters* externalCounters) {
     const Vector2i size = scene.camera()->outputSize();
     FilmBlock film(0, 0, size.x(), size.y());
-    const std::vector<Tile> tiles = makeTiles(size.x(), size.y(), settings.tileSize);
+    std::vector<Tile> tiles = makeTiles(size.x(), size.y(), settings.tileSize);
+    if (settings.crop) {
+        // A sample splats into pixels up to the filter's radius away (as makeUnitBlock's border
+        // allows), so the crop needs the tiles within that reach of it, whole: a tile's pixels
+        // are sampled the same whichever tiles are rendered with it.
+        const int reach = static_cast<int>(std::ceil(scene.camera()->filter()->radius() + 0.5f));
+        const Tile& c = *settings.crop;
+        std::erase_if(tiles, [&](const Tile& t) {
+            return t.x1 <= c.x0 - reach || t.x0 >= c.x1 + reach || t.y1 <= c.y0 - reach ||
+                   t.y0 >= c.y1 + reach;
+        });
+    }
+    uint64_t pixelsRendered = 0;
+    for (const Tile& tile : tiles) pixelsRendered += uint64_t(tile.width()) * tile.height();
     RenderCounters localCounters;
     RenderCounters& counters = externalCounters ? *externalCounters : localCounters;
     std::mutex filmMutex;
     const uint32_t chunk = std::max<uint32_t>(1, settings.passesPerUnit);
     for (uint32_t begin = 0; begin < settings.passes; begin += chunk) {
+        if (settings.stop && settings.stop->load()) break;
         const uint32_t end = std::min(settings.passes, begin + chunk);
         // Pass data (photon maps) is built once and shared by every tile of these passes.
         const auto passData = preparePasses(scene, settings.seed, begin, end);
@@ -33,7 +48,7 @@ FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
             status.passesDone = end;
             status.passesTotal = settings.passes;
             status.samplesDone = counters.samples.load();
-            status.samplesTotal = uint64_t(settings.passes) * size.x() * size.y();
+            status.samplesTotal = uint64_t(settings.passes) * pixelsRendered;
             status.rays = counters.rays.load();
             progress(status);
         }

@@ -4,7 +4,9 @@
 
 #include "common/render/unit.h"
 
+#include <atomic>
 #include <functional>
+#include <optional>
 
 namespace alphorn {
 
@@ -13,6 +15,13 @@ struct RenderSettings {
     uint32_t passes = 1;
     int tileSize = 64;
     uint32_t passesPerUnit = 1;
+    // Checked between chunks of passes: once it is true, rendering stops there and the film
+    // holds exactly the passes completed, as a render of that many passes would (Ctrl-C, a time
+    // limit).
+    const std::atomic<bool>* stop = nullptr;
+    // When set, only the tiles whose samples reach these pixels (through the reconstruction
+    // filter) are rendered: the film's sums over the crop are exactly those of the whole image.
+    std::optional<Tile> crop;
 };
 
 struct RenderStatus {
@@ -26,7 +35,7 @@ struct RenderStatus {
 // Called from the rendering thread after each chunk of passes.
 using ProgressCallback = std::function<void(const RenderStatus&)>;
 
-// Renders all passes and returns the film over the whole image.
+// Renders all passes (or those before settings.stop) and returns the film over the whole image.
 FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
                       const ProgressCallback& progress = {}, RenderCounters* counters = nullptr);
 

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <set>
 #include <sstream>
 
 namespace alphorn {
@@ -57,8 +58,9 @@ const std::map<std::string, Tag> kPropertyTags = {
 
 class Parser {
   public:
-    Parser(const std::string& path, const FileReferencePolicy& policy)
-        : m_path(path), m_name(path), m_policy(policy) {
+    Parser(const std::string& path, const FileReferencePolicy& policy,
+           const SceneOverrides& overrides)
+        : m_path(path), m_name(path), m_policy(policy), m_overrides(overrides) {
         namespace fs = std::filesystem;
         if (!m_policy.confinementRoot.empty()) {
             fs::path root = fs::absolute(m_policy.confinementRoot).lexically_normal();
@@ -110,6 +112,10 @@ class Parser {
                  location(root.offset_debug()), root.name());
         ParseResult out;
         out.root = parseObject(root);
+        for (const auto& [parameter, value] : m_overrides.parameters)
+            if (!m_usedParameters.count(parameter))
+                std::cerr << absl::StrFormat("warning: %s: -D %s=%s is not used: no $%s in it\n",
+                                             m_name, parameter, value, parameter);
         out.dependencies = std::move(*m_dependencies);
         return out;
     }
@@ -162,8 +168,35 @@ class Parser {
         }
     }
 
+    // An attribute's value with every $name replaced by its -D value.
     std::string attr(const pugi::xml_node& node, const char* name) const {
-        return node.attribute(name).value();
+        const std::string text = node.attribute(name).value();
+        auto isNameCharacter = [](char c) {
+            return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+        };
+        std::string out;
+        for (size_t i = 0; i < text.size(); ++i) {
+            if (text[i] != '$' || i + 1 == text.size() || !isNameCharacter(text[i + 1])) {
+                out += text[i];
+                continue;
+            }
+            size_t end = i + 1;
+            while (end < text.size() && isNameCharacter(text[end])) ++end;
+            const std::string parameter = text.substr(i + 1, end - i - 1);
+            auto it = m_overrides.parameters.find(parameter);
+            if (it == m_overrides.parameters.end()) {
+                std::vector<std::string> defined;
+                for (const auto& [known, value] : m_overrides.parameters) defined.push_back(known);
+                const std::string intended = closestName(parameter, defined);
+                failAt(node, "$%s in %s=\"%s\" is not defined (give it with -D %s=VALUE)%s",
+                       parameter, name, text, parameter,
+                       intended.empty() ? "" : absl::StrFormat("; did you mean $%s?", intended));
+            }
+            out += it->second;
+            m_usedParameters.insert(parameter);
+            i = end - 1;
+        }
+        return out;
     }
 
     float toFloat(const pugi::xml_node& node, const std::string& text) {
@@ -284,6 +317,7 @@ class Parser {
         props.setDependencyLog(m_dependencies);
 
         std::vector<std::pair<std::shared_ptr<Object>, std::string>> children;
+        std::map<std::string, ptrdiff_t> propertyOffsets;  // where each property was written
         for (const pugi::xml_node& child : node.children()) {
             if (child.type() == pugi::node_comment || child.type() == pugi::node_declaration)
                 continue;
@@ -297,19 +331,46 @@ class Parser {
                     failAt(child, "<scene> can only be nested in a <test>");
                 children.emplace_back(parseObject(child), attr(child, "name"));
             } else if (kPropertyTags.count(tag)) {
+                // --size replaces the camera's image size, written or not.
+                if (kind == ObjectKind::Camera && m_overrides.imageSize &&
+                    (attr(child, "name") == "width" || attr(child, "name") == "height"))
+                    continue;
                 parseProperty(child, kPropertyTags.at(tag), props);
+                propertyOffsets.emplace(attr(child, "name"), child.offset_debug());
             } else {
+                std::vector<std::string> known;
+                for (const auto& [name, ignored] : kObjectTags) known.push_back(name);
+                for (const auto& [name, ignored] : kPropertyTags) known.push_back(name);
+                const std::string intended = closestName(tag, known);
+                if (!intended.empty())
+                    failAt(child, "unknown element <%s>; did you mean <%s>?", tag, intended);
                 failAt(child, "unknown element <%s>", tag);
             }
         }
 
+        if (kind == ObjectKind::Camera && m_overrides.imageSize) {
+            props.setInteger("width", m_overrides.imageSize->x());
+            props.setInteger("height", m_overrides.imageSize->y());
+        }
         std::shared_ptr<Object> object = ObjectFactory::create(kind, type, props);
         if (object->kind() != kind) failAt(node, "type \"%s\" is not a %s", type, node.name());
         for (auto& [child, name] : children) object->addChild(child, name);
         object->activate();
-        for (const std::string& unused : props.unusedNames())
-            std::cerr << "warning: " << props.source() << ": property \"" << unused
-                      << "\" is not used\n";
+        // A property the plugin never read is most likely misspelt: when it is close to one the
+        // plugin asked for, that is certain enough to refuse the scene (rendering it would
+        // silently use the default); otherwise it may be meant for another renderer, so warn.
+        const std::string element = kind == ObjectKind::Scene
+                                        ? "<scene>"
+                                        : absl::StrFormat("<%s type=\"%s\">", node.name(), type);
+        for (const std::string& unused : props.unusedNames()) {
+            const std::string where = location(propertyOffsets.at(unused));
+            const std::string intended = closestName(unused, props.requestedNames());
+            if (!intended.empty())
+                fail("%s: %s has no property \"%s\"; did you mean \"%s\"?", where, element, unused,
+                     intended);
+            std::cerr << absl::StrFormat("warning: %s: property \"%s\" of %s is not used\n", where,
+                                         unused, element);
+        }
         return object;
     }
 
@@ -382,6 +443,8 @@ class Parser {
     std::string m_path;  // where the scene file is read from
     std::string m_name;
     FileReferencePolicy m_policy;
+    SceneOverrides m_overrides;
+    mutable std::set<std::string> m_usedParameters;  // the -D names some $name referred to
     std::string m_text;
     std::string m_baseDirectory;
     std::shared_ptr<std::vector<std::string>> m_dependencies =
@@ -390,12 +453,14 @@ class Parser {
 
 }  // namespace
 
-ParseResult parseSceneFile(const std::string& path, const FileReferencePolicy& policy) {
-    return Parser(path, policy).parse();
+ParseResult parseSceneFile(const std::string& path, const FileReferencePolicy& policy,
+                           const SceneOverrides& overrides) {
+    return Parser(path, policy, overrides).parse();
 }
 
-std::shared_ptr<Scene> loadScene(const std::string& path, const FileReferencePolicy& policy) {
-    Parser parser(path, policy);
+std::shared_ptr<Scene> loadScene(const std::string& path, const FileReferencePolicy& policy,
+                                 const SceneOverrides& overrides) {
+    Parser parser(path, policy, overrides);
     ParseResult result = parser.parse();
     if (result.root->kind() != ObjectKind::Scene)
         fail("%s: expected a <scene> root element, found <%s>", parser.name(),

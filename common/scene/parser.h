@@ -4,6 +4,9 @@
 
 #include "common/core/object.h"
 
+#include <map>
+#include <optional>
+
 namespace alphorn {
 
 class Scene;
@@ -13,11 +16,22 @@ struct ParseResult {
     std::vector<std::string> dependencies;  // every file the scene refers to, resolved
 };
 
+// What the command line changes in a scene as it is read (`alphorn render -D`, `--size`).
+struct SceneOverrides {
+    // Values of $name in attribute values (Mitsuba 3 style): `value="$spp"` reads `spp`'s
+    // value; an undefined $name is an error naming the file and line.
+    std::map<std::string, std::string> parameters;
+    // Replaces the camera's `width` and `height`, written or not.
+    std::optional<Vector2i> imageSize;
+};
+
 // Parses a scene or test file; throws Error("file:line:col: problem") on any problem. The policy
 // says which files the scene may name (any, by default). With a confinement root (a farm job's
 // bundle), messages name files relative to the root, so they never show where it lies.
-ParseResult parseSceneFile(const std::string& path, const FileReferencePolicy& policy = {});
+ParseResult parseSceneFile(const std::string& path, const FileReferencePolicy& policy = {},
+                           const SceneOverrides& overrides = {});
 // Parses a file whose root must be <scene>.
-std::shared_ptr<Scene> loadScene(const std::string& path, const FileReferencePolicy& policy = {});
+std::shared_ptr<Scene> loadScene(const std::string& path, const FileReferencePolicy& policy = {},
+                                 const SceneOverrides& overrides = {});
 
 }  // namespace alphorn

@@ -119,6 +119,86 @@ TEST_F(ParserTest, ErrorsNameFileLineAndProblem) {
                 {"bad.xml:4:", "filename"});
 }
 
+TEST_F(ParserTest, MisspeltNamesAreRefusedWithTheNearestKnownOne) {
+    auto camera = [](const std::string& property) {
+        return "<scene>\n<integrator type=\"normals\"/>\n<camera type=\"perspective\">\n"
+               "<integer name=\"width\" value=\"8\"/><integer name=\"height\" value=\"6\"/>\n"
+               "<float name=\"" +
+               property + "\" value=\"40\"/>\n</camera>\n</scene>\n";
+    };
+    expectError(camera("fovv"),
+                {"bad.xml:5:", "<camera type=\"perspective\"> has no property \"fovv\"",
+                 "did you mean \"fov\"?"});
+    expectError(camera("FOV"), {"bad.xml:5:", "did you mean \"fov\"?"});
+    expectError(sceneWith("<flaot name=\"fov\" value=\"1\"/>"),
+                {"bad.xml:4:", "unknown element <flaot>; did you mean <float>?"});
+    // A required property written with a typo is reported as missing, naming the typo.
+    expectError(sceneWith("<mesh type=\"obj\"><string name=\"filenme\" value=\"x.obj\"/></mesh>"),
+                {"bad.xml:4:", "missing required string property \"filename\"",
+                 "\"filenme\" a misspelling"});
+}
+
+TEST_F(ParserTest, UnusedPropertiesFarFromEveryKnownNameOnlyWarn) {
+    const std::string path =
+        write("extra.xml",
+              sceneWith("<mesh type=\"obj\"><string name=\"filename\" value=\"triangle.obj\"/>"
+                        "<string name=\"mitsubaOnlyOption\" value=\"x\"/></mesh>"));
+    EXPECT_NO_THROW(parseSceneFile(path));
+}
+
+TEST(ClosestName, PicksTheNearestWithinOneEditPerThreeLetters) {
+    const std::vector<std::string> names = {"fov", "width", "height", "toWorld", "filename"};
+    EXPECT_EQ(closestName("fovv", names), "fov");
+    EXPECT_EQ(closestName("wdith", names), "width");  // neighbouring letters swapped: one edit
+    EXPECT_EQ(closestName("TOWORLD", names), "toWorld");
+    EXPECT_EQ(closestName("heihgt", names), "height");
+    EXPECT_EQ(closestName("filenme", names), "filename");
+    EXPECT_EQ(closestName("xyz", names), "");
+    EXPECT_EQ(closestName("weight", names), "height");
+    EXPECT_EQ(closestName("fov", names), "");       // a name is not a misspelling of itself
+    EXPECT_EQ(closestName("fixxxame", names), "");  // three edits in eight letters: not close
+    // Very long names are not compared (the work grows with the product of the lengths).
+    EXPECT_EQ(closestName(std::string(300, 'a'), {std::string(299, 'a')}), "");
+}
+
+TEST_F(ParserTest, DollarNamesTakeTheirDefinedValues) {
+    const std::string path = write(
+        "params.xml",
+        "<scene>\n<integrator type=\"$integrator\"/>\n<camera type=\"perspective\">\n"
+        "<integer name=\"width\" value=\"$w\"/><integer name=\"height\" value=\"1$w\"/>\n"
+        "<float name=\"fov\" value=\"$fov\"/>\n</camera>\n"
+        "<mesh type=\"obj\"><string name=\"filename\" value=\"$mesh.obj\"/></mesh>\n</scene>\n");
+    SceneOverrides overrides;
+    overrides.parameters = {
+        {"integrator", "normals"}, {"w", "8"}, {"fov", "40"}, {"mesh", "triangle"}};
+    // An integrator type left as "$integrator" would be an unknown type: loading proves it.
+    auto scene = std::static_pointer_cast<Scene>(parseSceneFile(path, {}, overrides).root);
+    EXPECT_EQ(scene->camera()->outputSize(), Vector2i(8, 18));
+
+    overrides.parameters.erase("fov");
+    try {
+        parseSceneFile(path, {}, overrides);
+        FAIL() << "an undefined $fov was accepted";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("params.xml:5:"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("$fov in value=\"$fov\" is not defined"),
+                  std::string::npos)
+            << e.what();
+    }
+}
+
+TEST_F(ParserTest, ImageSizeOverrideReplacesTheCameraSize) {
+    const std::string path =
+        write("sized.xml", sceneWith("<mesh type=\"obj\"><string name=\"filename\" "
+                                     "value=\"triangle.obj\"/></mesh>"));
+    SceneOverrides overrides;
+    overrides.imageSize = Vector2i(5, 3);
+    auto scene = std::static_pointer_cast<Scene>(parseSceneFile(path, {}, overrides).root);
+    EXPECT_EQ(scene->camera()->outputSize(), Vector2i(5, 3));
+    scene = std::static_pointer_cast<Scene>(parseSceneFile(path).root);
+    EXPECT_EQ(scene->camera()->outputSize(), Vector2i(8, 6));
+}
+
 TEST_F(ParserTest, MissingSceneFileIsAnError) {
     EXPECT_THROW(parseSceneFile((m_dir / "nope.xml").string()), Error);
     EXPECT_THROW(parseSceneFile(m_dir.string()), Error);

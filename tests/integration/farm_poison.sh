@@ -40,7 +40,7 @@ error=$("$ALPHORN" status "$poison" --json | grep -o '"error":"[^"]*')
 echo "poison job: $error"
 [[ $error == *"unit 2 failed 2 times"* ]] || fail "unexpected error: $error"
 "$ALPHORN" watch "$poison" >/dev/null 2>&1 && fail "watch of a failed job must not exit 0"
-(($(grep -c "ALPHORN_TEST_CRASH_UNIT matches" "$WORK"/worker-*.log | awk -F: '{s+=$2} END {print s}') >= 2)) ||
+(($(grep -c "event=test_hook.crash" "$WORK"/worker-*.log | awk -F: '{s+=$2} END {print s}') >= 2)) ||
     fail "the workers should have crashed at least twice"
 pass "the poison unit failed its job after 2 attempts; the farm kept working"
 echo "PASS"

@@ -50,6 +50,6 @@ for job in "$job1" "$job2"; do
 done
 cmp "$WORK/local1.exr" "$WORK/farm$job1.exr" || fail "job $job1 (normals) differs from its local render"
 cmp "$WORK/local2.exr" "$WORK/farm$job2.exr" || fail "job $job2 (area light) differs from its local render"
-grep -q "loaded job 0" "$WORK/worker-a.log" && fail "the worker was told of a job 0"
+grep -q "event=job.loaded job=0 " "$WORK/worker-a.log" && fail "the worker was told of a job 0"
 pass "both jobs byte-identical to their local renders after the restart"
 echo "PASS"

@@ -42,7 +42,7 @@ leased() { (($(job_field "$job" units_leased) >= 1)); }
 wait_until 30 leased
 kill -TERM "$survivor"
 wait "$survivor" || fail "the worker did not exit 0 after SIGTERM"
-grep -q "drained; exiting" "$WORK/worker-b.log" || fail "the worker did not drain"
+grep -q "event=worker.drained" "$WORK/worker-b.log" || fail "the worker did not drain"
 done_at_exit=$(job_field "$job" units_done)
 ((done_at_exit >= 1)) || fail "the draining worker did not deliver the unit it held"
 [[ $(job_field "$job" units_leased) == 0 ]] || fail "the drained worker still holds a lease"

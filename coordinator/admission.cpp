@@ -1,0 +1,122 @@
+#include "coordinator/admission.h"
+
+#include "common/farm/bundle.h"
+#include "common/farm/convert.h"
+#include "common/farm/job_scene.h"
+#include "common/farm/rpc.h"
+#include "common/integrator/integrator.h"
+#include "common/photon/radius_schedule.h"
+#include "common/scene/scene.h"
+#include "coordinator/farm_error.h"
+
+#include <absl/strings/str_replace.h>
+
+#include <filesystem>
+
+namespace alphorn::coordinator {
+
+namespace fs = std::filesystem;
+using Kind = FarmError::Kind;
+
+namespace {
+
+// Passes per unit when the client leaves it to the coordinator. Units of at least ~64k samples
+// keep the per-unit cost (two round trips, compression, merge) near 1% of rendering, while at
+// least 4 pass chunks keep previews progressive.
+uint32_t defaultPassesPerUnit(const v1::JobSettings& settings, const Vector2i& size,
+                              uint32_t minimum) {
+    const uint64_t tilePixels = std::min<uint64_t>(
+        uint64_t(settings.tile_size()) * settings.tile_size(), uint64_t(size.x()) * size.y());
+    const uint64_t bySamples = std::max<uint64_t>(1, 65536 / std::max<uint64_t>(1, tilePixels));
+    const uint64_t byPreview = std::max<uint64_t>(1, settings.passes() / 4);
+    return static_cast<uint32_t>(std::max<uint64_t>(minimum, std::min(bySamples, byPreview)));
+}
+
+}  // namespace
+
+AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs,
+                     const AdmissionLimits& limits, const std::string& stagingParent) {
+    farm::Bundle bundle = farm::fromProto(request.bundle());
+    try {
+        farm::validateBundle(bundle);
+    } catch (const Error& e) {
+        throw FarmError(Kind::InvalidArgument, e.what());
+    }
+    uint64_t total = 0;
+    for (const farm::BundleEntry& file : bundle.files) {
+        if (!blobs.has(file.sha256))
+            throw FarmError(
+                Kind::FailedPrecondition,
+                absl::StrFormat("blob %s (%s) has not been uploaded", file.sha256, file.path));
+        const uint64_t size = blobs.size(file.sha256);
+        if (size != file.size)
+            throw FarmError(Kind::InvalidArgument,
+                            absl::StrFormat("%s: the manifest says %u bytes, the blob has %u",
+                                            file.path, file.size, size));
+        total += size;
+    }
+    if (total > limits.maxBundleBytes)
+        throw FarmError(Kind::ResourceExhausted,
+                        absl::StrFormat("the bundle has %u bytes, more than the limit of %u", total,
+                                        limits.maxBundleBytes));
+
+    // Materialize and load the scene now, so a broken scene fails at submit with the loader's
+    // "file:line: problem", with paths as the client knows them (relative to the bundle).
+    AdmittedJob admitted;
+    admitted.stagingDirectory =
+        (fs::path(stagingParent) / farm::generateToken().substr(0, 16)).string();
+    const std::string bundleDirectory = admitted.stagingDirectory + "/bundle";
+    v1::JobSettings settings = request.settings();
+    std::shared_ptr<Scene> scene;
+    try {
+        const std::string scenePath = farm::materializeBundle(
+            bundle, bundleDirectory, [&](const std::string& sha) { return blobs.pathOf(sha); });
+        scene = farm::loadJobScene(bundleDirectory, scenePath, settings.integrator_override());
+    } catch (const Error& e) {
+        fs::remove_all(admitted.stagingDirectory);
+        throw FarmError(Kind::InvalidArgument,
+                        absl::StrReplaceAll(e.what(), {{bundleDirectory + "/", ""}}));
+    }
+    const Vector2i size = scene->camera()->outputSize();
+    if (settings.passes() == 0)
+        settings.set_passes(static_cast<uint32_t>(scene->sampler()->sampleCount()));
+    if (settings.tile_size() == 0) settings.set_tile_size(limits.defaultTileSize);
+    if (settings.passes_per_unit() == 0)
+        settings.set_passes_per_unit(
+            defaultPassesPerUnit(settings, size, limits.defaultPassesPerUnit));
+    // A unit never spans more passes than the job has (the image does not depend on it).
+    settings.set_passes_per_unit(std::min(settings.passes_per_unit(), settings.passes()));
+    if (settings.name().empty()) settings.set_name(fs::path(bundle.scenePath).stem().string());
+    const std::optional<RadiusSchedule> radiusSchedule = scene->integrator()->radiusSchedule();
+    admitted.filterBorder = -makeUnitBlock(*scene, Tile{0, 0, 1, 1}).x0();
+    scene.reset();
+    auto refuse = [&](Kind kind, const std::string& message) {
+        fs::remove_all(admitted.stagingDirectory);
+        throw FarmError(kind, message);
+    };
+    if (uint64_t(size.x()) * uint64_t(size.y()) > limits.maxImagePixels)
+        refuse(Kind::ResourceExhausted,
+               absl::StrFormat("the image has %dx%d pixels, more than the limit of %u", size.x(),
+                               size.y(), limits.maxImagePixels));
+    if (settings.passes() > limits.maxPasses)
+        refuse(Kind::ResourceExhausted, absl::StrFormat("%u passes requested, the limit is %u",
+                                                        settings.passes(), limits.maxPasses));
+    if (settings.tile_size() > 16384)
+        refuse(Kind::InvalidArgument, "tile size must be at most 16384");
+    try {
+        admitted.grid = farm::JobGrid(size.x(), size.y(), int(settings.tile_size()),
+                                      settings.passes(), settings.passes_per_unit());
+    } catch (const Error& e) {
+        refuse(Kind::InvalidArgument, e.what());
+    }
+    admitted.description.mutable_bundle()->CopyFrom(request.bundle());
+    admitted.description.mutable_settings()->CopyFrom(settings);
+    if (radiusSchedule) {
+        v1::PhotonRadiusSchedule& schedule = *admitted.description.mutable_photon_radius_schedule();
+        schedule.set_initial_radius(radiusSchedule->initialRadius);
+        schedule.set_alpha(radiusSchedule->alpha);
+    }
+    return admitted;
+}
+
+}  // namespace alphorn::coordinator

@@ -1,0 +1,39 @@
+// Admission: what a submitted job must satisfy and the defaults it gets. The bundle's blobs must
+// be uploaded with the sizes the manifest says; the scene must load (so a broken scene fails at
+// submit with the loader's "file:line: problem"); the image, passes, tile and unit counts must be
+// within the limits. Unset settings get their defaults (passes from the scene's sampler, the
+// tile size, passes per unit, the name). Memory and storage are the coordinator's business.
+#pragma once
+
+#include "alphorn/v1/client_service.pb.h"
+#include "alphorn/v1/worker_service.pb.h"
+#include "common/farm/job_grid.h"
+#include "coordinator/blob_store.h"
+
+#include <string>
+
+namespace alphorn::coordinator {
+
+struct AdmissionLimits {
+    uint64_t maxBundleBytes = uint64_t(2) << 30;
+    uint64_t maxImagePixels = uint64_t(8192) * 8192;
+    uint32_t maxPasses = 1u << 20;
+    int defaultTileSize = 64;
+    uint32_t defaultPassesPerUnit = 1;
+};
+
+struct AdmittedJob {
+    v1::JobDescription description;  // bundle, settings with defaults, radius schedule; no id
+    farm::JobGrid grid;
+    int filterBorder = 0;
+    // The materialized bundle (a directory holding bundle/), to become the job's directory.
+    std::string stagingDirectory;
+};
+
+// Checks and completes a submission; materializes its bundle under `stagingParent`. Throws
+// FarmError (InvalidArgument, FailedPrecondition or ResourceExhausted) and then leaves nothing
+// behind.
+AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs,
+                     const AdmissionLimits& limits, const std::string& stagingParent);
+
+}  // namespace alphorn::coordinator

@@ -1,0 +1,117 @@
+// Admission: a submission's defaults (passes from the scene's sampler, tile size, passes per
+// unit, name) and its refusals (a blob not uploaded, a size that disagrees with the manifest,
+// the limits), each leaving no staging directory behind.
+#include "coordinator/admission.h"
+
+#include "common/farm/bundle.h"
+#include "common/farm/convert.h"
+#include "common/farm/files.h"
+#include "coordinator/farm_error.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+namespace alphorn::coordinator {
+namespace {
+
+namespace fs = std::filesystem;
+
+class AdmissionTest : public ::testing::Test {
+  protected:
+    void SetUp() override {
+        m_dir = fs::temp_directory_path() / ("alphorn_admission_" + std::to_string(::getpid()));
+        fs::remove_all(m_dir);
+        fs::create_directories(m_dir / "scene");
+        fs::create_directories(m_dir / "staging");
+        fs::copy_file(fs::path(ALPHORN_SOURCE_DIR) / "scenes/meshes/triangle.obj",
+                      m_dir / "scene/triangle.obj");
+        std::ofstream(m_dir / "scene/room.xml") << R"(<scene>
+  <integrator type="normals"/>
+  <sampler type="independent"><integer name="sampleCount" value="24"/></sampler>
+  <camera type="perspective">
+    <transform name="toWorld"><lookat origin="0, 3, 0.5" target="0, 0, 0" up="0, 0, 1"/></transform>
+    <integer name="width" value="200"/><integer name="height" value="100"/>
+  </camera>
+  <mesh type="obj"><string name="filename" value="triangle.obj"/></mesh>
+</scene>)";
+        m_blobs = std::make_unique<BlobStore>((m_dir / "blobs").string(), 1 << 20);
+    }
+    void TearDown() override { fs::remove_all(m_dir); }
+
+    v1::SubmitJobRequest request(bool upload = true) {
+        const farm::Bundle bundle = farm::gatherBundle((m_dir / "scene/room.xml").string());
+        for (const auto& file : bundle.files) {
+            if (!upload) break;
+            BlobStore::Upload blob(*m_blobs, file.sha256);
+            blob.append(farm::readFile(file.sourcePath));
+            blob.commit();
+        }
+        v1::SubmitJobRequest submit;
+        *submit.mutable_bundle() = farm::toProto(bundle);
+        return submit;
+    }
+    AdmittedJob admit(const v1::SubmitJobRequest& submit, AdmissionLimits limits = {}) {
+        return admitJob(submit, *m_blobs, limits, (m_dir / "staging").string());
+    }
+    bool stagingEmpty() const { return fs::is_empty(m_dir / "staging"); }
+
+    fs::path m_dir;
+    std::unique_ptr<BlobStore> m_blobs;
+};
+
+TEST_F(AdmissionTest, UnsetSettingsGetTheirDefaults) {
+    AdmissionLimits limits;
+    limits.defaultTileSize = 32;
+    const AdmittedJob job = admit(request(), limits);
+    const v1::JobSettings& settings = job.description.settings();
+    EXPECT_EQ(settings.passes(), 24u) << "the scene's sample count";
+    EXPECT_EQ(settings.tile_size(), 32u);
+    // 65536 / (32 x 32) = 64 passes by samples, 24 / 4 = 6 by previews: 6.
+    EXPECT_EQ(settings.passes_per_unit(), 6u);
+    EXPECT_EQ(settings.name(), "room");
+    EXPECT_EQ(job.grid.unitCount(), 7u * 4u * 4u);
+    EXPECT_GT(job.filterBorder, 0) << "the default gaussian filter reaches beyond a tile";
+    EXPECT_EQ(job.description.job_id(), 0u) << "the id is the store's to give";
+    EXPECT_TRUE(fs::exists(job.stagingDirectory + "/bundle/room.xml"));
+
+    v1::SubmitJobRequest explicitSettings = request();
+    explicitSettings.mutable_settings()->set_passes(3);
+    explicitSettings.mutable_settings()->set_passes_per_unit(9);
+    explicitSettings.mutable_settings()->set_name("mine");
+    const AdmittedJob clamped = admit(explicitSettings, limits);
+    EXPECT_EQ(clamped.description.settings().passes_per_unit(), 3u) << "not clamped to passes";
+    EXPECT_EQ(clamped.description.settings().name(), "mine");
+}
+
+TEST_F(AdmissionTest, RefusalsSayWhyAndLeaveNothingBehind) {
+    const auto kindOf = [&](const v1::SubmitJobRequest& submit, AdmissionLimits limits) {
+        try {
+            admit(submit, limits);
+        } catch (const FarmError& e) {
+            return e.kind;
+        }
+        ADD_FAILURE() << "admitted";
+        return FarmError::Kind::NotFound;
+    };
+    EXPECT_EQ(kindOf(request(false), {}), FarmError::Kind::FailedPrecondition)
+        << "a blob not uploaded";
+    v1::SubmitJobRequest wrongSize = request();
+    wrongSize.mutable_bundle()->mutable_files(0)->set_size(1);
+    EXPECT_EQ(kindOf(wrongSize, {}), FarmError::Kind::InvalidArgument);
+    AdmissionLimits small;
+    small.maxImagePixels = 200 * 100 - 1;
+    EXPECT_EQ(kindOf(request(), small), FarmError::Kind::ResourceExhausted);
+    AdmissionLimits fewPasses;
+    fewPasses.maxPasses = 23;
+    EXPECT_EQ(kindOf(request(), fewPasses), FarmError::Kind::ResourceExhausted);
+    AdmissionLimits smallBundle;
+    smallBundle.maxBundleBytes = 10;
+    EXPECT_EQ(kindOf(request(), smallBundle), FarmError::Kind::ResourceExhausted);
+    EXPECT_TRUE(stagingEmpty()) << "a refused job left its bundle behind";
+}
+
+}  // namespace
+}  // namespace alphorn::coordinator

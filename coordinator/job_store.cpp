@@ -1,0 +1,188 @@
+#include "coordinator/job_store.h"
+
+#include <openssl/rand.h>
+
+namespace alphorn::coordinator {
+
+namespace {
+
+constexpr const char* kSchema[] = {
+    R"sql(CREATE TABLE IF NOT EXISTS jobs(
+  id INTEGER PRIMARY KEY AUTOINCREMENT,
+  description BLOB NOT NULL,   -- serialized alphorn.v1.JobDescription (bundle + settings)
+  state INTEGER NOT NULL,      -- alphorn.v1.JobState
+  error TEXT NOT NULL DEFAULT '',
+  width INTEGER NOT NULL,
+  height INTEGER NOT NULL,
+  filter_border INTEGER NOT NULL,
+  created_at REAL NOT NULL,
+  finished_at REAL))sql",
+    R"sql(CREATE TABLE IF NOT EXISTS units(
+  job_id INTEGER NOT NULL,
+  unit_index INTEGER NOT NULL,
+  attempts INTEGER NOT NULL,   -- failed attempts: worker errors and expired leases
+  last_error TEXT NOT NULL,
+  PRIMARY KEY(job_id, unit_index)))sql",
+    R"sql(CREATE TABLE IF NOT EXISTS meta(
+  key TEXT PRIMARY KEY,        -- 'epoch': starts of this state directory; 'lease_key': HMAC key
+  value BLOB NOT NULL))sql",
+    R"sql(CREATE TABLE IF NOT EXISTS workers(
+  id INTEGER PRIMARY KEY AUTOINCREMENT,
+  name TEXT NOT NULL,
+  cores INTEGER NOT NULL,
+  memory_bytes INTEGER NOT NULL,
+  version TEXT NOT NULL,
+  registered_at REAL NOT NULL))sql",
+    // Earlier versions recorded uploaded blobs here and never read them: the blob directory is
+    // what counts (blob_store.h).
+    "DROP TABLE IF EXISTS blobs",
+};
+
+using Value = StateDatabase::Value;
+
+double real(const Value& value) {
+    if (const double* number = std::get_if<double>(&value)) return *number;
+    if (const int64_t* number = std::get_if<int64_t>(&value)) return double(*number);
+    return 0;
+}
+
+}  // namespace
+
+JobStore::JobStore(const std::string& path) : m_db(path) {
+    for (const char* statement : kSchema) m_db.execute(statement);
+}
+
+uint64_t JobStore::beginEpoch() {
+    const auto rows = m_db.query("SELECT value FROM meta WHERE key = 'epoch'");
+    const uint64_t epoch = rows.empty() ? 1 : uint64_t(StateDatabase::integer(rows[0][0])) + 1;
+    m_db.execute("INSERT OR REPLACE INTO meta(key, value) VALUES('epoch', ?)", {int64_t(epoch)});
+    return epoch;
+}
+
+std::string JobStore::leaseKey() {
+    const auto rows = m_db.query("SELECT value FROM meta WHERE key = 'lease_key'");
+    std::string key = rows.empty() ? std::string() : StateDatabase::text(rows[0][0]);
+    if (key.size() != 32) {
+        key.assign(32, '\0');
+        if (RAND_bytes(reinterpret_cast<unsigned char*>(key.data()), 32) != 1)
+            fail("cannot generate the lease key (OpenSSL)");
+        m_db.execute("INSERT OR REPLACE INTO meta(key, value) VALUES('lease_key', ?)", {key});
+    }
+    return key;
+}
+
+uint64_t JobStore::addJob(const v1::JobDescription& description, int width, int height,
+                          int filterBorder, double createdAt) {
+    const auto rows = m_db.query(
+        "INSERT INTO jobs(description, state, width, height, filter_border, created_at) "
+        "VALUES(?, ?, ?, ?, ?, ?) RETURNING id",
+        {description.SerializeAsString(), int64_t(v1::JOB_STATE_RUNNING), int64_t(width),
+         int64_t(height), int64_t(filterBorder), createdAt});
+    const uint64_t id = uint64_t(StateDatabase::integer(rows.at(0).at(0)));
+    // The stored description carries its id too, so workers told of a resumed job load that
+    // job's scene and no other. (No transaction: the connection is shared between threads.)
+    v1::JobDescription stored = description;
+    stored.set_job_id(id);
+    try {
+        m_db.execute("UPDATE jobs SET description = ? WHERE id = ?",
+                     {stored.SerializeAsString(), int64_t(id)});
+    } catch (const StorageError&) {
+        try {
+            removeJob(id);
+        } catch (const StorageError&) {
+            // The row stays without its id; jobs() gives it back with the row's id all the same.
+        }
+        throw;
+    }
+    return id;
+}
+
+std::vector<JobRow> JobStore::jobs() {
+    std::vector<JobRow> result;
+    for (const auto& row : m_db.query("SELECT id, description, state, error, width, height, "
+                                      "filter_border, created_at, finished_at FROM jobs")) {
+        JobRow job;
+        job.id = uint64_t(StateDatabase::integer(row[0]));
+        v1::JobDescription description;
+        if (description.ParseFromString(StateDatabase::text(row[1]))) {
+            // The id is the row's; descriptions stored before it was known carry 0.
+            description.set_job_id(job.id);
+            job.description = std::move(description);
+        }
+        job.state = StateDatabase::integer(row[2]);
+        job.error = StateDatabase::text(row[3]);
+        job.width = int(StateDatabase::integer(row[4]));
+        job.height = int(StateDatabase::integer(row[5]));
+        job.filterBorder = int(StateDatabase::integer(row[6]));
+        job.createdAt = real(row[7]);
+        job.finishedAt = real(row[8]);
+        result.push_back(std::move(job));
+    }
+    return result;
+}
+
+void JobStore::setJobState(uint64_t jobId, v1::JobState state, const std::string& error,
+                           double finishedAt) {
+    m_db.execute("UPDATE jobs SET state = ?, error = ?, finished_at = ? WHERE id = ?",
+                 {int64_t(state), error, finishedAt > 0 ? Value(finishedAt) : Value(nullptr),
+                  int64_t(jobId)});
+}
+
+void JobStore::removeJob(uint64_t jobId) {
+    m_db.execute("DELETE FROM units WHERE job_id = ?", {int64_t(jobId)});
+    m_db.execute("DELETE FROM jobs WHERE id = ?", {int64_t(jobId)});
+}
+
+void JobStore::setUnitAttempts(uint64_t jobId, uint32_t unitIndex, uint32_t attempts,
+                               const std::string& lastError) {
+    m_db.execute(
+        "INSERT INTO units(job_id, unit_index, attempts, last_error) VALUES(?, ?, ?, ?) "
+        "ON CONFLICT(job_id, unit_index) DO UPDATE SET attempts = excluded.attempts, "
+        "last_error = excluded.last_error",
+        {int64_t(jobId), int64_t(unitIndex), int64_t(attempts), lastError});
+}
+
+std::vector<UnitAttemptsRow> JobStore::unitAttempts(uint64_t jobId) {
+    std::vector<UnitAttemptsRow> result;
+    for (const auto& row :
+         m_db.query("SELECT unit_index, attempts, last_error FROM units WHERE job_id = ?",
+                    {int64_t(jobId)})) {
+        const int64_t index = StateDatabase::integer(row[0]);
+        if (index < 0 || index > int64_t(UINT32_MAX)) continue;
+        result.push_back(UnitAttemptsRow{
+            uint32_t(index),
+            uint32_t(std::clamp<int64_t>(StateDatabase::integer(row[1]), 0, UINT32_MAX)),
+            StateDatabase::text(row[2])});
+    }
+    return result;
+}
+
+uint64_t JobStore::addWorker(const WorkerRow& worker, double registeredAt) {
+    const auto rows = m_db.query(
+        "INSERT INTO workers(name, cores, memory_bytes, version, registered_at) "
+        "VALUES(?, ?, ?, ?, ?) RETURNING id",
+        {worker.name, int64_t(worker.cores), int64_t(worker.memoryBytes), worker.version,
+         registeredAt});
+    return uint64_t(StateDatabase::integer(rows.at(0).at(0)));
+}
+
+std::vector<WorkerRow> JobStore::workers() {
+    std::vector<WorkerRow> result;
+    for (const auto& row :
+         m_db.query("SELECT id, name, cores, memory_bytes, version FROM workers")) {
+        WorkerRow worker;
+        worker.id = uint64_t(StateDatabase::integer(row[0]));
+        worker.name = StateDatabase::text(row[1]);
+        worker.cores = uint32_t(StateDatabase::integer(row[2]));
+        worker.memoryBytes = uint64_t(StateDatabase::integer(row[3]));
+        worker.version = StateDatabase::text(row[4]);
+        result.push_back(std::move(worker));
+    }
+    return result;
+}
+
+void JobStore::removeWorker(uint64_t workerId) {
+    m_db.execute("DELETE FROM workers WHERE id = ?", {int64_t(workerId)});
+}
+
+}  // namespace alphorn::coordinator

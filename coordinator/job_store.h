@@ -1,0 +1,78 @@
+// The coordinator's durable records in SQLite, behind typed rows: jobs (description, shape,
+// state), failed unit attempts, registered workers, and the lease epoch and key. The schema lives
+// here and nowhere else; film sums are not here but in each job's checkpoint (job_film.h).
+// Every method throws StorageError when the database cannot be written or read.
+#pragma once
+
+#include "alphorn/v1/client_service.pb.h"
+#include "alphorn/v1/worker_service.pb.h"
+#include "coordinator/state_db.h"
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace alphorn::coordinator {
+
+struct JobRow {
+    uint64_t id = 0;
+    // The stored description with the row's id set in it (a resumed job is the same job for
+    // workers, who cache scenes by it); nullopt when the stored bytes do not parse.
+    std::optional<v1::JobDescription> description;
+    int64_t state = 0;  // an alphorn.v1.JobState, unchecked
+    std::string error;
+    int width = 0, height = 0, filterBorder = 0;
+    double createdAt = 0;
+    double finishedAt = 0;  // 0 while running
+};
+
+struct UnitAttemptsRow {
+    uint32_t unitIndex = 0;
+    uint32_t attempts = 0;  // failed attempts: worker errors and expired leases
+    std::string lastError;
+};
+
+struct WorkerRow {
+    uint64_t id = 0;
+    std::string name, version;
+    uint32_t cores = 0;
+    uint64_t memoryBytes = 0;
+};
+
+class JobStore {
+  public:
+    // Opens (creating if needed) the database at `path`.
+    explicit JobStore(const std::string& path);
+
+    // Counts one more start of the state directory and returns that number (1 for the first).
+    uint64_t beginEpoch();
+    // The key lease tokens are signed with, created on first use (32 random bytes).
+    std::string leaseKey();
+
+    // Stores a new running job and returns its id; the stored description carries the id.
+    uint64_t addJob(const v1::JobDescription& description, int width, int height, int filterBorder,
+                    double createdAt);
+    std::vector<JobRow> jobs();
+    // Records that a job ended (or, with JOB_STATE_RUNNING and finishedAt 0, runs again).
+    void setJobState(uint64_t jobId, v1::JobState state, const std::string& error,
+                     double finishedAt);
+    // Deletes the job and its unit records.
+    void removeJob(uint64_t jobId);
+
+    void setUnitAttempts(uint64_t jobId, uint32_t unitIndex, uint32_t attempts,
+                         const std::string& lastError);
+    std::vector<UnitAttemptsRow> unitAttempts(uint64_t jobId);
+
+    uint64_t addWorker(const WorkerRow& worker, double registeredAt);
+    std::vector<WorkerRow> workers();
+    void removeWorker(uint64_t workerId);
+
+    // The SQL connection, for tests that damage records on purpose.
+    StateDatabase& database() { return m_db; }
+
+  private:
+    StateDatabase m_db;
+};
+
+}  // namespace alphorn::coordinator

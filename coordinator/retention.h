@@ -1,0 +1,35 @@
+// Retention: what the coordinator may forget. An ended job is kept for `keep` seconds after it
+// ended; a blob goes when no remaining job references it and nobody stored, offered or asked for
+// it within `keep` seconds (so an upload for a job about to be submitted is not collected); a
+// worker is forgotten when it holds no lease and has not called for `keep` seconds. keep 0
+// keeps everything. Pure functions of their arguments.
+#pragma once
+
+#include "coordinator/blob_store.h"
+
+#include <set>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace alphorn::coordinator {
+
+class Retention {
+  public:
+    explicit Retention(double keepSeconds) : m_keep(keepSeconds) {}
+
+    bool keepsEverything() const { return !(m_keep > 0); }
+    // `endedAt`: wall clock when the job or the worker's last contact was.
+    bool expired(double endedAt, double now) const {
+        return !keepsEverything() && endedAt + m_keep <= now;
+    }
+    // The stored blobs to delete; `touchedAt` maps a blob to its last use (wall clock).
+    std::vector<BlobStore::StoredBlob> unusedBlobs(
+        const std::vector<BlobStore::StoredBlob>& stored, const std::set<std::string>& referenced,
+        const std::unordered_map<std::string, double>& touchedAt, double now) const;
+
+  private:
+    double m_keep;
+};
+
+}  // namespace alphorn::coordinator

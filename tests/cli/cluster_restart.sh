@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# `alphorn cluster` reports a worker that dies and starts it again (no <defunct> left behind),
+# and on Ctrl-C keeps the logs in the folder it named while removing the state and caches.
+# Usage: cluster_restart.sh ALPHORN
+set -u
+alphorn=$1
+out=$(mktemp -d)
+cluster=""
+trap '[ -n "$cluster" ] && kill -9 "$cluster" 2>/dev/null; [ -n "$cluster" ] && wait "$cluster" 2>/dev/null; rm -rf "$out" "${root:-/nonexistent}"' EXIT
+fail() { echo "FAIL: $*"; cat "$out/cluster.err"; exit 1; }
+
+set -m  # its own process group, and SIGINT not ignored
+"$alphorn" cluster --workers 2 --threads 1 >"$out/cluster.out" 2>"$out/cluster.err" &
+cluster=$!
+set +m
+for _ in $(seq 300); do grep -q "running; Ctrl-C stops it" "$out/cluster.err" && break; sleep 0.1; done
+grep -q "running; Ctrl-C stops it" "$out/cluster.err" || fail "the cluster did not start"
+root=$(sed -n 's/.*; logs in \([^ ]*\) (kept on exit.*/\1/p' "$out/cluster.err")
+[ -d "$root" ] || fail "no log folder named"
+
+# The cluster's children: the coordinator and two workers; kill one worker.
+victim=""
+for pid in $(cat /proc/"$cluster"/task/*/children); do
+  if tr '\0' ' ' <"/proc/$pid/cmdline" | grep -q -- "--name local-1"; then victim=$pid; fi
+done
+[ -n "$victim" ] || fail "no worker local-1 among the cluster's children"
+kill -9 "$victim"
+for _ in $(seq 100); do grep -q "worker local-1 (pid $victim) was killed by signal 9" "$out/cluster.err" && break; sleep 0.1; done
+grep -q "worker local-1 (pid $victim) was killed by signal 9 (Killed); restarted it as pid [0-9]*" "$out/cluster.err" ||
+  fail "the dead worker was not reported and restarted"
+new=$(sed -n 's/.*restarted it as pid \([0-9]*\).*/\1/p' "$out/cluster.err" | tail -1)
+kill -0 "$new" 2>/dev/null || fail "the restarted worker (pid $new) is not running"
+tr '\0' ' ' <"/proc/$new/cmdline" | grep -q -- "--name local-1" || fail "pid $new is not worker local-1"
+if [ -e "/proc/$victim" ]; then fail "the killed worker $victim was not reaped (defunct)"; fi
+echo "ok   killed worker local-1 (pid $victim): reported and restarted as pid $new"
+
+# Farm progress counts merged units (plain lines off a terminal), and `workers` has a header.
+export $(grep ALPHORN_ "$out/cluster.out" | xargs)
+timeout 60 "$alphorn" submit "$(dirname "$0")/scenes/ok_normals.xml" --spp 4 --tile 16 --watch \
+  >/dev/null 2>"$out/watch.err" || { cat "$out/watch.err"; fail "submit --watch failed"; }
+grep -q "^job 1: [0-9]*/24 units ([0-9]*%), .* [0-9]*/4 passes" "$out/watch.err" ||
+  { cat "$out/watch.err"; fail "no progress line counting units"; }
+grep -q "^job 1: done, 24/24 units" "$out/watch.err" || { cat "$out/watch.err"; fail "no closing line"; }
+"$alphorn" workers | head -1 | grep -q "^ID    NAME .*STATE" || fail "no header row in workers"
+echo "ok   farm progress counts units; workers has a header row"
+
+kill -INT "$cluster"
+timeout 60 tail --pid="$cluster" -f /dev/null
+wait "$cluster"
+status=$?
+cluster=""
+[ "$status" -eq 0 ] || fail "exit code $status after Ctrl-C"
+grep -q "cluster: logs kept in $root" "$out/cluster.err" || fail "no word about the logs kept"
+for log in coordinator.log worker-0.log worker-1.log; do
+  [ -s "$root/$log" ] || fail "$root/$log was not kept"
+done
+[ ! -e "$root/state" ] || fail "the temporary state was not removed"
+[ ! -e "$root/client.token" ] || fail "the temporary tokens were not removed"
+echo "ok   Ctrl-C: logs kept in $root, state and tokens removed"

@@ -1,0 +1,139 @@
+// <sampler type="sobol">: Owen-scrambled Sobol points, one scrambled sequence per stream and draw.
+//   sampleCount  samples per pixel (default 1); best at powers of two, where every draw's
+//                points form a stratified net
+// The pass is the sample index, so there is no sample count to commit to in advance: any prefix
+// of passes is a valid render, and pass p is the same numbers on every worker. Following Burley,
+// "Practical Hash-based Owen Scrambling" (JCGT 2020), every draw gets its own low-dimensional
+// sequence instead of sharing one high-dimensional one:
+//   - a 1D draw is the first Sobol dimension (van der Corput), a 2D draw the first two Sobol
+//     dimensions, a (0,2)-sequence: the first 2^k passes of a 2D draw put one point in every
+//     cell of each 2^a x 2^(k-a) grid;
+//   - the sample index is Owen-scrambled (bits reversed) with a key from (seed, stream,
+//     dimension), which shuffles the sequence in aligned blocks of 2^k and so keeps those nets,
+//     while different draws of one stream see unrelated orders (this decorrelates the dimensions
+//     as padding does, with no direction-number table beyond the first two dimensions);
+//   - each coordinate is Owen-scrambled with its own key, which makes every point uniform on
+//     [0,1)^2 and decorrelates neighbouring pixels.
+// Owen scrambling is approximated by a hash in which each output bit depends only on the bits
+// above it (the Laine-Karras construction). Passes beyond 2^32 start a new set of scrambles.
+#include "common/sampler/sampler.h"
+
+#include <array>
+
+namespace alphorn {
+
+namespace {
+
+// Generator matrix columns of the second Sobol dimension (primitive polynomial x + 1): column k
+// is the binary expansion of the k-th row of Pascal's triangle mod 2, read from the top bit.
+constexpr std::array<uint32_t, 32> makeSecondDimension() {
+    std::array<uint32_t, 32> columns{};
+    uint32_t column = 1u << 31;
+    for (int k = 0; k < 32; ++k) {
+        columns[k] = column;
+        column ^= column >> 1;
+    }
+    return columns;
+}
+constexpr std::array<uint32_t, 32> kSecondDimension = makeSecondDimension();
+
+uint32_t sobolSecondDimension(uint32_t index) {
+    uint32_t value = 0;
+    for (int k = 0; index != 0; ++k, index >>= 1)
+        if (index & 1u) value ^= kSecondDimension[k];
+    return value;
+}
+
+// A key-chosen permutation of 32-bit words in which output bit b depends only on input bits
+// 0..b: adding, multiplying by an odd number and xor-ing with an even multiple never carry
+// information downwards. Applied to bit-reversed numbers it is a hashed nested uniform (Owen)
+// scramble. Three rounds, each with its own key-derived addend and odd factor: with fewer, or
+// with fixed factors, numbers that differ in one low bit (neighbouring sample indices) get
+// visibly dependent higher bits (a chi-square test over many keys finds it).
+uint32_t lowToHighPermutation(uint32_t x, uint32_t key) {
+    for (int round = 0; round < 3; ++round) {
+        x += key;
+        x *= (key >> 7) | 1u;
+        x ^= x * 0x9a3c5e14u;
+        key = (key ^ (key >> 16)) * 0x9e3779b9u + 0x7f4a7c15u;
+    }
+    return x;
+}
+
+uint32_t reverseBits(uint32_t x) {
+    x = (x << 16) | (x >> 16);
+    x = ((x & 0x00ff00ffu) << 8) | ((x & 0xff00ff00u) >> 8);
+    x = ((x & 0x0f0f0f0fu) << 4) | ((x & 0xf0f0f0f0u) >> 4);
+    x = ((x & 0x33333333u) << 2) | ((x & 0xccccccccu) >> 2);
+    return ((x & 0x55555555u) << 1) | ((x & 0xaaaaaaaau) >> 1);
+}
+
+// Owen scrambling of a binary fraction held in the top bits: bit b (from the top) is flipped by
+// a function of the key and the bits above it.
+uint32_t owenScramble(uint32_t fraction, uint32_t key) {
+    return reverseBits(lowToHighPermutation(reverseBits(fraction), key));
+}
+
+// 24 bits, so that the float is exact and below 1.
+float toUnitFloat(uint32_t fraction) {
+    return static_cast<float>(fraction >> 8) * 0x1p-24f;
+}
+
+}  // namespace
+
+class Sobol : public Sampler {
+  public:
+    explicit Sobol(const PropertyList& props) {
+        m_sampleCount = props.getPositiveInteger("sampleCount", 1);
+    }
+
+    std::unique_ptr<Sampler> clone() const override { return std::make_unique<Sobol>(*this); }
+
+    void startStream(uint64_t seed, uint64_t pass, uint64_t stream,
+                     StreamPurpose purpose) override {
+        // The pass is the sample index: it must not enter the key, except for the 2^32-pass
+        // block it belongs to.
+        m_streamKey =
+            mix64(seed ^ mix64(stream ^ mix64(static_cast<uint64_t>(purpose) ^ mix64(pass >> 32))));
+        m_index = static_cast<uint32_t>(pass);
+        m_dimension = 0;
+    }
+
+    float next1D() override {
+        const uint64_t key = drawKey(m_dimension++);
+        const uint32_t index = shuffledIndex(key);
+        // The first Sobol dimension is the bit-reversed index, so its Owen scramble is the
+        // low-to-high permutation of the index itself, reversed.
+        return toUnitFloat(reverseBits(lowToHighPermutation(index, xKey(key))));
+    }
+
+    Point2f next2D() override {
+        const uint64_t key = drawKey(m_dimension);
+        m_dimension += 2;
+        const uint32_t index = shuffledIndex(key);
+        const uint32_t x = reverseBits(lowToHighPermutation(index, xKey(key)));
+        const uint32_t y = owenScramble(sobolSecondDimension(index), yKey(key));
+        return Point2f(toUnitFloat(x), toUnitFloat(y));
+    }
+
+    std::string toString() const override {
+        return "sobol sampler (" + std::to_string(m_sampleCount) + " spp)";
+    }
+
+  private:
+    uint64_t drawKey(uint32_t dimension) const {
+        return mix64(m_streamKey ^ (static_cast<uint64_t>(dimension) + 1));
+    }
+    // Three 32-bit keys from one 64-bit draw key: the index shuffle and the two coordinates.
+    static uint32_t shuffleKey(uint64_t key) { return static_cast<uint32_t>(key); }
+    static uint32_t xKey(uint64_t key) { return static_cast<uint32_t>(key >> 32); }
+    static uint32_t yKey(uint64_t key) { return static_cast<uint32_t>(mix64(key) >> 32); }
+    uint32_t shuffledIndex(uint64_t key) const { return owenScramble(m_index, shuffleKey(key)); }
+
+    uint64_t m_streamKey = 0;
+    uint32_t m_index = 0, m_dimension = 0;
+};
+
+ALPHORN_REGISTER(Sampler, "sobol", Sobol);
+
+}  // namespace alphorn

@@ -24,24 +24,33 @@ namespace alphorn {
 
 namespace {
 
-// Generator matrix columns of the second Sobol dimension (primitive polynomial x + 1): column k
-// is the binary expansion of the k-th row of Pascal's triangle mod 2, read from the top bit.
-constexpr std::array<uint32_t, 32> makeSecondDimension() {
-    std::array<uint32_t, 32> columns{};
-    uint32_t column = 1u << 31;
+// The second Sobol dimension (primitive polynomial x + 1), bit-reversed: its generator matrix is
+// Pascal's triangle mod 2, so column k is row k of the triangle, here with its first entry in the
+// lowest bit. Tables of the XOR of the columns selected by each byte of the index make the
+// product four look-ups (4 KiB).
+struct ByteTables {
+    uint32_t byte[4][256];
+};
+constexpr ByteTables makeSecondDimensionReversed() {
+    uint32_t columns[32] = {};
+    uint32_t column = 1u;
     for (int k = 0; k < 32; ++k) {
         columns[k] = column;
-        column ^= column >> 1;
+        column ^= column << 1;
     }
-    return columns;
+    ByteTables tables{};
+    for (int b = 0; b < 4; ++b)
+        for (uint32_t value = 0; value < 256; ++value)
+            for (int bit = 0; bit < 8; ++bit)
+                if (value >> bit & 1u) tables.byte[b][value] ^= columns[8 * b + bit];
+    return tables;
 }
-constexpr std::array<uint32_t, 32> kSecondDimension = makeSecondDimension();
+constexpr ByteTables kSecondDimensionReversed = makeSecondDimensionReversed();
 
-uint32_t sobolSecondDimension(uint32_t index) {
-    uint32_t value = 0;
-    for (int k = 0; index != 0; ++k, index >>= 1)
-        if (index & 1u) value ^= kSecondDimension[k];
-    return value;
+uint32_t sobolSecondDimensionReversed(uint32_t index) {
+    const auto& t = kSecondDimensionReversed.byte;
+    return t[0][index & 255u] ^ t[1][index >> 8 & 255u] ^ t[2][index >> 16 & 255u] ^
+           t[3][index >> 24];
 }
 
 // A key-chosen permutation of 32-bit words in which output bit b depends only on input bits
@@ -68,12 +77,6 @@ uint32_t reverseBits(uint32_t x) {
     return ((x & 0x55555555u) << 1) | ((x & 0xaaaaaaaau) >> 1);
 }
 
-// Owen scrambling of a binary fraction held in the top bits: bit b (from the top) is flipped by
-// a function of the key and the bits above it.
-uint32_t owenScramble(uint32_t fraction, uint32_t key) {
-    return reverseBits(lowToHighPermutation(reverseBits(fraction), key));
-}
-
 // 24 bits, so that the float is exact and below 1.
 float toUnitFloat(uint32_t fraction) {
     return static_cast<float>(fraction >> 8) * 0x1p-24f;
@@ -95,25 +98,27 @@ class Sobol : public Sampler {
         // block it belongs to.
         m_streamKey =
             mix64(seed ^ mix64(stream ^ mix64(static_cast<uint64_t>(purpose) ^ mix64(pass >> 32))));
-        m_index = static_cast<uint32_t>(pass);
+        m_reversedIndex = reverseBits(static_cast<uint32_t>(pass));
         m_dimension = 0;
     }
 
+    // Owen scrambling works on bit-reversed numbers (lowToHighPermutation), so the values stay
+    // bit-reversed until they become floats. The first Sobol dimension of an index is the
+    // index reversed: reversed once more, the index itself.
     float next1D() override {
-        const uint64_t key = drawKey(m_dimension++);
+        const uint64_t key = drawKey(m_dimension++, 0);
         const uint32_t index = shuffledIndex(key);
-        // The first Sobol dimension is the bit-reversed index, so its Owen scramble is the
-        // low-to-high permutation of the index itself, reversed.
         return toUnitFloat(reverseBits(lowToHighPermutation(index, xKey(key))));
     }
 
     Point2f next2D() override {
-        const uint64_t key = drawKey(m_dimension);
+        const uint64_t key = drawKey(m_dimension, 0), yKey = drawKey(m_dimension, 1);
         m_dimension += 2;
         const uint32_t index = shuffledIndex(key);
-        const uint32_t x = reverseBits(lowToHighPermutation(index, xKey(key)));
-        const uint32_t y = owenScramble(sobolSecondDimension(index), yKey(key));
-        return Point2f(toUnitFloat(x), toUnitFloat(y));
+        const uint32_t x = lowToHighPermutation(index, xKey(key));
+        const uint32_t y =
+            lowToHighPermutation(sobolSecondDimensionReversed(index), static_cast<uint32_t>(yKey));
+        return Point2f(toUnitFloat(reverseBits(x)), toUnitFloat(reverseBits(y)));
     }
 
     std::string toString() const override {
@@ -121,17 +126,20 @@ class Sobol : public Sampler {
     }
 
   private:
-    uint64_t drawKey(uint32_t dimension) const {
-        return mix64(m_streamKey ^ (static_cast<uint64_t>(dimension) + 1));
+    uint64_t drawKey(uint32_t dimension, uint64_t which) const {
+        return mix64(m_streamKey ^ (static_cast<uint64_t>(dimension) << 1 | which));
     }
-    // Three 32-bit keys from one 64-bit draw key: the index shuffle and the two coordinates.
+    // The index shuffle and the first coordinate take the two halves of one draw key.
     static uint32_t shuffleKey(uint64_t key) { return static_cast<uint32_t>(key); }
     static uint32_t xKey(uint64_t key) { return static_cast<uint32_t>(key >> 32); }
-    static uint32_t yKey(uint64_t key) { return static_cast<uint32_t>(mix64(key) >> 32); }
-    uint32_t shuffledIndex(uint64_t key) const { return owenScramble(m_index, shuffleKey(key)); }
+    // The index Owen-scrambled as a binary fraction (bit 0 of the index is its top digit): the
+    // permutation keeps every aligned block of 2^k indices together.
+    uint32_t shuffledIndex(uint64_t key) const {
+        return reverseBits(lowToHighPermutation(m_reversedIndex, shuffleKey(key)));
+    }
 
     uint64_t m_streamKey = 0;
-    uint32_t m_index = 0, m_dimension = 0;
+    uint32_t m_reversedIndex = 0, m_dimension = 0;
 };
 
 ALPHORN_REGISTER(Sampler, "sobol", Sobol);

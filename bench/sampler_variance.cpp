@@ -119,6 +119,7 @@ Reference renderReference(const Scene& scene, const Tile& tile, uint32_t passes)
 }  // namespace
 
 int main(int argc, char** argv) {
+    std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress while it runs, also into a file
     const uint32_t referencePasses = argc > 1 ? uint32_t(std::stoul(argv[1])) : 1024;
     const int crop = argc > 2 ? std::stoi(argv[2]) : 128;
     const int seeds = argc > 3 ? std::stoi(argv[3]) : 2;

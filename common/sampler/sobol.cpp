@@ -18,8 +18,6 @@
 // above it (the Laine-Karras construction). Passes beyond 2^32 start a new set of scrambles.
 #include "common/sampler/sampler.h"
 
-#include <array>
-
 namespace alphorn {
 
 namespace {
@@ -56,9 +54,11 @@ uint32_t sobolSecondDimensionReversed(uint32_t index) {
 // A key-chosen permutation of 32-bit words in which output bit b depends only on input bits
 // 0..b: adding, multiplying by an odd number and xor-ing with an even multiple never carry
 // information downwards. Applied to bit-reversed numbers it is a hashed nested uniform (Owen)
-// scramble. Three rounds, each with its own key-derived addend and odd factor: with fewer, or
-// with fixed factors, numbers that differ in one low bit (neighbouring sample indices) get
-// visibly dependent higher bits (a chi-square test over many keys finds it).
+// scramble. Each round has its own key-derived addend and odd factor: with a fixed factor (one
+// key addition among constant multiplications), numbers that differ in one low bit (neighbouring
+// sample indices) get strongly dependent higher bits (a chi-square test of the bits above the
+// difference, over many keys, rejects it); two rounds of this form passed that test, the third
+// is margin.
 uint32_t lowToHighPermutation(uint32_t x, uint32_t key) {
     for (int round = 0; round < 3; ++round) {
         x += key;

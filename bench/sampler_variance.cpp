@@ -11,12 +11,13 @@
 // distribution (the radius shrinks), so its reference-noise estimate is approximate, and its error
 // includes the progressive estimate's bias, which no sampler changes.
 //
-// The samplers render interleaved, pass by pass (one pass of each in turn), so that machine load
-// affects their times alike; "time" is the render time per pass relative to independent.
+// The samplers render interleaved, pass by pass (one pass of each in turn, the first of each
+// round rotating), after an untimed warm-up pass each, so that machine load affects their times
+// alike; "time" is the render time per pass relative to independent.
 // stratified is given sampleCount = spp, the count it stratifies over.
 //
-// usage: bench_sampler_variance [referencePasses=1024] [crop=128] [seeds=2] [SPP ...]
-//        (default SPP: 16 64)
+// usage: bench_sampler_variance [referencePasses=1024] [crop=128] [seeds=2]
+//                               [scenes=cbox,fog,caustic] [SPP ...]   (default SPP: 16 64)
 #include "bench/timing.h"
 #include "common/render/unit.h"
 #include "common/scene/parser.h"
@@ -36,6 +37,7 @@ using namespace alphorn;
 namespace {
 
 struct SceneCase {
+    const char* key;  // its name on the command line
     const char* name;
     const char* path;  // relative to the source tree
     Tile crop;         // empty: the centre crop
@@ -123,18 +125,19 @@ int main(int argc, char** argv) {
     const uint32_t referencePasses = argc > 1 ? uint32_t(std::stoul(argv[1])) : 1024;
     const int crop = argc > 2 ? std::stoi(argv[2]) : 128;
     const int seeds = argc > 3 ? std::stoi(argv[3]) : 2;
+    const std::string chosen = argc > 4 ? argv[4] : "cbox,fog,caustic";
     std::vector<uint32_t> spps;
-    for (int i = 4; i < argc; ++i) spps.push_back(uint32_t(std::stoul(argv[i])));
+    for (int i = 5; i < argc; ++i) spps.push_back(uint32_t(std::stoul(argv[i])));
     if (spps.empty()) spps = {16, 64};
     if (referencePasses < 2 || seeds < 1) {
         std::fprintf(stderr, "need at least 2 reference passes and 1 seed\n");
         return 2;
     }
     const SceneCase scenes[] = {
-        {"cbox (path_mis)", "scenes/cbox/cbox.xml", Tile{}},
-        {"spotlight_fog (volume_path_mis)", "scenes/seed/spotlight_fog.xml", Tile{}},
+        {"cbox", "cbox (path_mis)", "scenes/cbox/cbox.xml", Tile{}},
+        {"fog", "spotlight_fog (volume_path_mis)", "scenes/seed/spotlight_fog.xml", Tile{}},
         // The caustic and the sphere's shadow (bench_caustic_convergence's crop).
-        {"caustic (photonmapper, progressive)", "scenes/caustic/caustic.xml",
+        {"caustic", "caustic (photonmapper, progressive)", "scenes/caustic/caustic.xml",
          Tile{224, 160, 352, 256}},
     };
     const char* samplers[] = {"independent", "stratified", "sobol"};
@@ -143,6 +146,8 @@ int main(int argc, char** argv) {
         "around the caustic); %d seeds per figure; all cores\n",
         referencePasses, crop, crop, seeds);
     for (const SceneCase& sceneCase : scenes) {
+        if (("," + chosen + ",").find("," + std::string(sceneCase.key) + ",") == std::string::npos)
+            continue;
         const std::string path = std::string(ALPHORN_SOURCE_DIR) + "/" + sceneCase.path;
         const auto referenceScene = loadWithSampler(path, "independent", 1);
         const Tile tile =
@@ -158,11 +163,17 @@ int main(int argc, char** argv) {
             for (const char* sampler : samplers)
                 variants.push_back(loadWithSampler(path, sampler, int(spp)));
             std::vector<double> mse(variants.size(), 0.0), time(variants.size(), 0.0);
+            for (const auto& scene : variants) {  // warm-up, untimed: first-touch costs
+                FilmBlock block = makeUnitBlock(*scene, tile);
+                renderUnit(*scene, 999, RenderUnit{0, 1, tile}, preparePasses(*scene, 999, 0, 1),
+                           block);
+            }
             for (int seed = 1; seed <= seeds; ++seed) {
                 std::vector<FilmBlock> blocks;
                 for (const auto& scene : variants) blocks.push_back(makeUnitBlock(*scene, tile));
                 for (uint32_t pass = 0; pass < spp; ++pass)
-                    for (size_t s = 0; s < variants.size(); ++s) {
+                    for (size_t turn = 0; turn < variants.size(); ++turn) {
+                        const size_t s = (pass + turn) % variants.size();  // who goes first rotates
                         const auto passStart = std::chrono::steady_clock::now();
                         const auto data = preparePasses(*variants[s], seed, pass, pass + 1);
                         renderUnit(*variants[s], seed, RenderUnit{pass, pass + 1, tile}, data,

@@ -1,7 +1,7 @@
-// Error at equal samples per pixel of the independent, stratified and sobol samplers on three
-// scene classes: the Cornell box (path_mis), a spotlight in fog (volume_path_mis) and the caustic
-// (progressive photon mapper). Every scene renders a centre crop through renderUnit, the function
-// the renderer and the workers use.
+// Error at equal samples per pixel of the independent, stratified and sobol samplers on four
+// scene classes: a soft shadow (direct_mats), the Cornell box (path_mis), a spotlight in fog
+// (volume_path_mis) and the caustic (progressive photon mapper). Every scene renders a centre crop
+// through renderUnit, the function the renderer and the workers use.
 //
 // The reference is the same scene with the independent sampler at many passes and another seed,
 // rendered pass by pass so that its own noise can be estimated: the variance of its per-pass
@@ -17,7 +17,7 @@
 // stratified is given sampleCount = spp, the count it stratifies over.
 //
 // usage: bench_sampler_variance [referencePasses=1024] [crop=128] [seeds=2]
-//                               [scenes=cbox,fog,caustic] [SPP ...]   (default SPP: 16 64)
+//                               [scenes=shadow,cbox,fog,caustic] [SPP ...] (default SPP: 16 64)
 #include "bench/timing.h"
 #include "common/render/unit.h"
 #include "common/scene/parser.h"
@@ -125,7 +125,7 @@ int main(int argc, char** argv) {
     const uint32_t referencePasses = argc > 1 ? uint32_t(std::stoul(argv[1])) : 1024;
     const int crop = argc > 2 ? std::stoi(argv[2]) : 128;
     const int seeds = argc > 3 ? std::stoi(argv[3]) : 2;
-    const std::string chosen = argc > 4 ? argv[4] : "cbox,fog,caustic";
+    const std::string chosen = argc > 4 ? argv[4] : "shadow,cbox,fog,caustic";
     std::vector<uint32_t> spps;
     for (int i = 5; i < argc; ++i) spps.push_back(uint32_t(std::stoul(argv[i])));
     if (spps.empty()) spps = {16, 64};
@@ -134,6 +134,8 @@ int main(int argc, char** argv) {
         return 2;
     }
     const SceneCase scenes[] = {
+        // Direct light only: a soft shadow under an area light (the report's sampler picture).
+        {"shadow", "soft shadow (direct_mats)", "scenes/seed/sampler_independent.xml", Tile{}},
         {"cbox", "cbox (path_mis)", "scenes/cbox/cbox.xml", Tile{}},
         {"fog", "spotlight_fog (volume_path_mis)", "scenes/seed/spotlight_fog.xml", Tile{}},
         // The caustic and the sphere's shadow (bench_caustic_convergence's crop).

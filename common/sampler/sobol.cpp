@@ -132,8 +132,9 @@ class Sobol : public Sampler {
     // The index shuffle and the first coordinate take the two halves of one draw key.
     static uint32_t shuffleKey(uint64_t key) { return static_cast<uint32_t>(key); }
     static uint32_t xKey(uint64_t key) { return static_cast<uint32_t>(key >> 32); }
-    // The index Owen-scrambled as a binary fraction (bit 0 of the index is its top digit): the
-    // permutation keeps every aligned block of 2^k indices together.
+    // The index Owen-scrambled as a binary fraction whose top digit is its most significant bit:
+    // a bit is flipped as a function of the bits above it, so every aligned block of 2^k indices
+    // maps onto an aligned block of 2^k indices (whose Sobol points form a net).
     uint32_t shuffledIndex(uint64_t key) const {
         return reverseBits(lowToHighPermutation(m_reversedIndex, shuffleKey(key)));
     }

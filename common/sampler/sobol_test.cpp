@@ -116,6 +116,38 @@ TEST(Sobol, ProjectionsAndPairsOfDrawsAreUniformChiSquare) {
     }
 }
 
+// Owen scrambling makes two points of a net independent below the digits their position in the
+// net fixes: passes 2m and 2m + 1 fall in opposite halves, and within them (frac(2x)) they are
+// independent; passes 4m + a and 4m + a + 2 are independent in frac(4x) (chi-square of the joint
+// histogram over 16384 pixels). Shuffling the index alone, without scrambling the values, would
+// keep the other tests' marginals uniform but make these fine digits equal.
+TEST(Sobol, PointsOfOneNetAreIndependentBelowTheirSharedDigits) {
+    auto sampler = make("sobol");
+    const int streams = 16384, side = 16;
+    auto frac = [](float v, float scale) { return v * scale - std::floor(v * scale); };
+    // Pairs of passes (first, second) and the scale that removes their shared digits.
+    const struct {
+        int first, second;
+        float scale;
+    } pairs[] = {{0, 1, 2}, {6, 7, 2}, {0, 2, 4}, {5, 7, 4}};
+    const double alpha = stats::sidakAlpha(0.01, 4 * 3);
+    for (const auto& pair : pairs) {
+        std::vector<Point2f> a, bx, by;
+        for (int stream = 0; stream < streams; ++stream) {
+            const Draws first = drawPass(*sampler, 21, pair.first, stream);
+            const Draws second = drawPass(*sampler, 21, pair.second, stream);
+            a.push_back(Point2f(frac(first.a, pair.scale), frac(second.a, pair.scale)));
+            bx.push_back(Point2f(frac(first.b.x(), pair.scale), frac(second.b.x(), pair.scale)));
+            by.push_back(Point2f(frac(first.e.y(), pair.scale), frac(second.e.y(), pair.scale)));
+        }
+        for (const auto* set : {&a, &bx, &by}) {
+            const stats::Chi2Result r = uniform2D(*set, side, alpha);
+            EXPECT_TRUE(r.passed) << "passes " << pair.first << ", " << pair.second << ": "
+                                  << r.message;
+        }
+    }
+}
+
 bool isNet(const std::vector<Point2f>& points, int log2Count) {
     for (int a = 0; a <= log2Count; ++a) {
         const int nx = 1 << a, ny = 1 << (log2Count - a);

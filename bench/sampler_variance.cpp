@@ -23,6 +23,7 @@
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -129,8 +130,9 @@ int main(int argc, char** argv) {
     std::vector<uint32_t> spps;
     for (int i = 5; i < argc; ++i) spps.push_back(uint32_t(std::stoul(argv[i])));
     if (spps.empty()) spps = {16, 64};
-    if (referencePasses < 2 || seeds < 1) {
-        std::fprintf(stderr, "need at least 2 reference passes and 1 seed\n");
+    const bool tooFewSpp = std::any_of(spps.begin(), spps.end(), [](uint32_t n) { return n < 2; });
+    if (referencePasses < 2 || seeds < 1 || tooFewSpp) {
+        std::fprintf(stderr, "need at least 2 reference passes, 1 seed and 2 spp\n");
         return 2;
     }
     const SceneCase scenes[] = {
@@ -158,13 +160,14 @@ int main(int argc, char** argv) {
         const Reference reference = renderReference(*referenceScene, tile, referencePasses);
         std::printf("\n%s: reference %.1f s, its noise (MSE) %.3g\n", sceneCase.name,
                     bench::seconds(start), reference.noise);
-        std::printf("  %4s  %-12s %10s %12s %12s %10s %8s\n", "spp", "sampler", "RMSE", "MSE",
-                    "MSE - ref", "MSE ratio", "time");
+        std::printf("  %4s  %-12s %10s %12s %12s %10s %8s %12s\n", "spp", "sampler", "RMSE", "MSE",
+                    "MSE - ref", "MSE ratio", "time", "var/spp");
         for (uint32_t spp : spps) {
             std::vector<std::shared_ptr<Scene>> variants;
             for (const char* sampler : samplers)
                 variants.push_back(loadWithSampler(path, sampler, int(spp)));
-            std::vector<double> mse(variants.size(), 0.0), time(variants.size(), 0.0);
+            std::vector<double> mse(variants.size(), 0.0), time(variants.size(), 0.0),
+                iidMse(variants.size(), 0.0);
             for (const auto& scene : variants) {  // warm-up, untimed: first-touch costs
                 FilmBlock block = makeUnitBlock(*scene, tile);
                 renderUnit(*scene, 999, RenderUnit{0, 1, tile}, preparePasses(*scene, 999, 0, 1),
@@ -173,14 +176,25 @@ int main(int argc, char** argv) {
             for (int seed = 1; seed <= seeds; ++seed) {
                 std::vector<FilmBlock> blocks;
                 for (const auto& scene : variants) blocks.push_back(makeUnitBlock(*scene, tile));
+                std::vector<std::vector<double>> passSum(variants.size()),
+                    passSum2(variants.size());
                 for (uint32_t pass = 0; pass < spp; ++pass)
                     for (size_t turn = 0; turn < variants.size(); ++turn) {
                         const size_t s = (pass + turn) % variants.size();  // who goes first rotates
                         const auto passStart = std::chrono::steady_clock::now();
                         const auto data = preparePasses(*variants[s], seed, pass, pass + 1);
+                        FilmBlock passBlock = makeUnitBlock(*variants[s], tile);
                         renderUnit(*variants[s], seed, RenderUnit{pass, pass + 1, tile}, data,
-                                   blocks[s]);
+                                   passBlock);
                         time[s] += bench::seconds(passStart);
+                        blocks[s].add(passBlock);
+                        const std::vector<double> image = pixels(passBlock, tile);
+                        passSum[s].resize(image.size(), 0.0);
+                        passSum2[s].resize(image.size(), 0.0);
+                        for (size_t i = 0; i < image.size(); ++i) {
+                            passSum[s][i] += image[i];
+                            passSum2[s][i] += image[i] * image[i];
+                        }
                     }
                 for (size_t s = 0; s < variants.size(); ++s) {
                     const std::vector<double> image = pixels(blocks[s], tile);
@@ -190,18 +204,28 @@ int main(int argc, char** argv) {
                         sum += e * e;
                     }
                     mse[s] += sum / image.size() / seeds;
+                    // What the error would be if the passes were independent: the variance of a
+                    // pass's pixel values over the spp (a check on the reference and on
+                    // independent, whose passes are independent).
+                    double variance = 0;
+                    for (size_t i = 0; i < image.size(); ++i) {
+                        const double mean = passSum[s][i] / spp;
+                        variance += (passSum2[s][i] - spp * mean * mean) / (spp - 1);
+                    }
+                    iidMse[s] += variance / image.size() / spp / seeds;
                 }
             }
             for (size_t s = 0; s < variants.size(); ++s) {
                 const double corrected = mse[s] - reference.noise;
-                std::printf("  %4u  %-12s %10.4g %12.4g %12.4g %10.2f %8.2f\n", spp, samplers[s],
-                            std::sqrt(mse[s]), mse[s], corrected,
-                            (mse[0] - reference.noise) / corrected, time[s] / time[0]);
+                std::printf("  %4u  %-12s %10.4g %12.4g %12.4g %10.2f %8.2f %12.4g\n", spp,
+                            samplers[s], std::sqrt(mse[s]), mse[s], corrected,
+                            (mse[0] - reference.noise) / corrected, time[s] / time[0], iidMse[s]);
             }
         }
     }
     std::printf(
         "\nMSE ratio = (MSE - ref) of independent / (MSE - ref) of the sampler: above 1, "
-        "the sampler has less error at equal spp. time = render time / independent's.\n");
+        "the sampler has less error at equal spp. time = render time / independent's. var/spp = "
+        "the MSE independent passes with the per-pass variance seen would give.\n");
     return 0;
 }

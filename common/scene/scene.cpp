@@ -38,9 +38,10 @@ void Scene::activate() {
     if (!m_camera) fail("the scene has no camera");
     if (!m_integrator) fail("the scene has no integrator");
     if (!m_sampler) {
-        // Owen-scrambled Sobol with one sample per pixel: at equal samples it matched or beat
-        // the independent (Nori's default) and stratified samplers on every scene class of
-        // bench_sampler_variance (bench/RESULTS.md), by far the most in fog.
+        // Owen-scrambled Sobol with one sample per pixel: at equal samples it beat the
+        // independent sampler (Nori's default) on direct light and fog and tied on the Cornell
+        // box (bench_sampler_variance, bench/RESULTS.md); unlike stratified, it needs no
+        // sample count to stratify over.
         PropertyList props(source() + " (default sampler)");
         m_sampler = std::static_pointer_cast<Sampler>(
             ObjectFactory::create(ObjectKind::Sampler, "sobol", props));

@@ -1,8 +1,8 @@
-// Error against wall time for path_mis and the progressive photon mapper on the caustic scene
-// (issue 4, item 6): both render the same crop around the caustic, pass by pass, through
-// renderUnit; at every power of two of passes the RMS error against a long reference is
-// recorded with the wall time so far. Writes a CSV and a log-log chart (PNG: x = seconds,
-// y = RMS error, one decade per grid line; red = path_mis, blue = photonmapper).
+// Error against wall time for path_mis and the progressive photon mapper on the caustic scene:
+// both render the same crop around the caustic, pass by pass, through renderUnit; at every power of
+// two of passes the RMS error against a long reference is recorded with the wall time so far.
+// Writes a CSV and a log-log chart (PNG: x = seconds, y = RMS error, one decade per grid line; red
+// = path_mis, blue = photonmapper).
 //
 // The reference is the progressive photon mapper itself at many more passes with another seed:
 // it converges to the same limit as path_mis (the radius shrinks to zero), and path_mis at any

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Farm benchmarks (issue 3, item 7). Usage: bench/farm_bench.sh [BUILD_DIR] [SPP, default 32]
+# Farm benchmarks. Usage: bench/farm_bench.sh [BUILD_DIR] [SPP, default 32]
 #  1. Farm overhead: the same job through `alphorn render --threads 1` and through a one-worker
 #     farm (`alphorn cluster --workers 1 --threads 1 --render`), alternating, best of two each.
 #     CPU time counts every process (client, coordinator, worker). Also checks the EXRs are equal.

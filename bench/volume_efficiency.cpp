@@ -1,4 +1,4 @@
-// volume_path_mats against volume_path_mis on fog scenes (issue 7): time per pass, variance per
+// volume_path_mats against volume_path_mis on fog scenes: time per pass, variance per
 // pass, and the efficiency ratio 1 / (variance x time) of mis over mats, measured in one run.
 //
 // For each scene both integrators render the same centre crop, one pass at a time, through

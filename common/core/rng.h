@@ -1,7 +1,7 @@
 // Deterministic random numbers. Every stream is a pure function of (job seed, pass, stream id),
 // where the stream id is a pixel index for camera paths and a photon index for photon paths;
 // draws within a stream are sequential "dimensions". Nothing depends on threads, tiles or
-// workers, which is what makes a farm render byte-identical to a local one (DESIGN.md).
+// workers, which is what makes a farm render byte-identical to a local one.
 #pragma once
 
 #include <pcg_random.hpp>

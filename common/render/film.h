@@ -4,7 +4,7 @@
 // to a 128-bit fixed-point integer with 40 fractional bits, and from then on only integer sums
 // are formed. Integer addition is associative, so the image does not depend on the order in
 // which threads, tiles or workers add their parts: this is how a render on one machine, on two
-// workers, or with a worker killed midway gives the same bytes (DESIGN.md, promise 1; see
+// workers, or with a worker killed midway gives the same bytes (see
 // docs/architecture.md for why this beats a canonical merge order).
 #pragma once
 

@@ -11,6 +11,7 @@
 // in the machine's load hits both alike; the ratio of their rays per second is printed.
 //
 // usage: bench_photon_tracing [SCENE.xml] [photon paths] [rounds]
+#include "bench/embree_ray.h"
 #include "bench/timing.h"
 #include "common/core/rng.h"
 #include "common/core/warp.h"
@@ -45,17 +46,7 @@ uint64_t traceRawEmbree(const Scene& scene, const Eigen::AlignedBox3f& box, uint
         const Point3f o = box.min() + box.sizes().cwiseProduct(Vector3f(
                                           rng.nextFloat(), rng.nextFloat(), rng.nextFloat()));
         const Vector3f d = warp::squareToUniformSphere(Point2f(rng.nextFloat(), rng.nextFloat()));
-        RTCRayHit rh;
-        rh.ray.org_x = o.x(), rh.ray.org_y = o.y(), rh.ray.org_z = o.z();
-        rh.ray.dir_x = d.x(), rh.ray.dir_y = d.y(), rh.ray.dir_z = d.z();
-        rh.ray.tnear = Epsilon;
-        rh.ray.tfar = Infinity;
-        rh.ray.time = 0.0f;
-        rh.ray.mask = 0xffffffffu;
-        rh.ray.id = 0;
-        rh.ray.flags = 0;
-        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-        rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+        RTCRayHit rh = bench::makeRayHit(o, d);
         rtcIntersect1(embree, &context, &rh);
         hits += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
     }

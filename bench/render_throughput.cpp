@@ -8,6 +8,7 @@
 // sampling, filtering and accumulation on top of ray traversal.
 //
 // usage: bench_render_throughput [SCENE.xml] [passes] [rounds]
+#include "bench/embree_ray.h"
 #include "bench/timing.h"
 #include "common/core/frame.h"
 #include "common/core/rng.h"
@@ -24,24 +25,10 @@
 #include <string>
 
 using namespace alphorn;
+using bench::makeRayHit;
 using bench::seconds;
 
 namespace {
-
-RTCRayHit makeRayHit(const Point3f& o, const Vector3f& d) {
-    RTCRayHit rh;
-    rh.ray.org_x = o.x(), rh.ray.org_y = o.y(), rh.ray.org_z = o.z();
-    rh.ray.dir_x = d.x(), rh.ray.dir_y = d.y(), rh.ray.dir_z = d.z();
-    rh.ray.tnear = Epsilon;
-    rh.ray.tfar = Infinity;
-    rh.ray.time = 0.0f;
-    rh.ray.mask = 0xffffffffu;
-    rh.ray.id = 0;
-    rh.ray.flags = 0;
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    return rh;
-}
 
 // Traces camera rays and cosine bounces with raw rtcIntersect1; returns the number of rays.
 uint64_t traceRawEmbree(const Scene& scene, uint32_t passes, double raysPerSample) {

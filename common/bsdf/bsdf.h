@@ -1,5 +1,5 @@
 // The BSDF interface (Nori's). Directions are in the local shading frame (normal = +z), both
-// pointing away from the surface: wi towards the light/previous vertex... see BSDFQueryRecord.
+// pointing away from the surface; which is which is said at BSDFQueryRecord.
 #pragma once
 
 #include "common/core/color.h"

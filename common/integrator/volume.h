@@ -197,6 +197,18 @@ struct ScatteringVertex {
     // vertex's parameter on it (delta lights then share their weight with that strategy).
     const EquiangularSegment* segment = nullptr;
     float t = 0.0f;
+
+    // A vertex on a surface, reached along `dir` inside `medium`.
+    static ScatteringVertex onSurface(const Intersection& its, const BSDF& bsdf,
+                                      const Vector3f& dir, const Medium* medium) {
+        ScatteringVertex v;
+        v.p = its.p;
+        v.its = &its;
+        v.bsdf = &bsdf;
+        v.wi = -dir;
+        v.medium = medium;
+        return v;
+    }
 };
 
 inline Color3f sampleLightThroughMedia(const Scene& scene, Sampler& sampler,
@@ -336,12 +348,7 @@ inline Color3f volumePathLi(const Scene& scene, Sampler& sampler, const Ray3f& c
 
         const Vector3f wiLocal = its.toLocal(-dir);
         if (mis && bsdf.isDiffuse()) {
-            ScatteringVertex v;
-            v.p = its.p;
-            v.its = &its;
-            v.bsdf = &bsdf;
-            v.wi = -dir;
-            v.medium = medium;
+            const ScatteringVertex v = ScatteringVertex::onSurface(its, bsdf, dir, medium);
             result += throughput * sampleLightThroughMedia(scene, sampler, v, bounds, true);
         }
 

@@ -120,12 +120,8 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
             if (bsdf.isDiffuse()) {
                 result += throughput * reflectedRadiance(data, its, bsdf, wi);
                 if (samplesDirectLight()) {
-                    ScatteringVertex vertex;
-                    vertex.p = its.p;
-                    vertex.its = &its;
-                    vertex.bsdf = &bsdf;
-                    vertex.wi = -dir;
-                    vertex.medium = medium;
+                    const ScatteringVertex vertex =
+                        ScatteringVertex::onSurface(its, bsdf, dir, medium);
                     result +=
                         throughput * sampleLightThroughMedia(scene, sampler, vertex, bounds, false);
                 }

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package Alphorn builds, tests or runs with. Idempotent: installs only
-# what is missing, so the README commands are cheap to repeat.
+# what is missing, so the README commands are cheap to repeat. With --build, only what building
+# the binaries needs (the Docker image's build stage), not the tools the tests drive.
 set -euo pipefail
 PACKAGES=(
   build-essential cmake ninja-build ccache pkg-config python3 openssl git clang-format
@@ -9,7 +10,13 @@ PACKAGES=(
   libembree-dev libtbb-dev libpugixml-dev libtinyobjloader-dev libpng-dev
   libboost-dev libsqlite3-dev libzstd-dev libnanoflann-dev libpcg-cpp-dev libcli11-dev libssl-dev
   clang-14 libclang-rt-14-dev
+  libcpp-httplib-dev prometheus-cpp-dev
 )
+# Test and benchmark tools: a real Prometheus server scrapes a test farm; charts are drawn with
+# matplotlib.
+if [ "${1:-}" != "--build" ]; then
+  PACKAGES+=(prometheus python3-matplotlib python3-numpy)
+fi
 missing=()
 for p in "${PACKAGES[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -13,7 +13,7 @@
 #include "coordinator/coordinator.h"
 
 #include <gtest/gtest.h>
-#include <prometheus/registry.h>
+#include <prometheus/collectable.h>
 
 #include <filesystem>
 #include <fstream>

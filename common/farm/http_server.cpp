@@ -29,6 +29,20 @@ void socketOptions(socket_t sock) {
     setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
 }
 
+// Whether the request's bearer token is one of `tokens`. Every token is compared, in constant
+// time, so the time taken tells nothing about which one matched or how much of it.
+bool carriesOneOf(const httplib::Request& request, const std::vector<std::string>& tokens) {
+    const std::string value = request.get_header_value("Authorization");
+    const std::string_view prefix = "Bearer ";
+    if (value.compare(0, prefix.size(), prefix) != 0) return false;
+    const std::string_view token = std::string_view(value).substr(prefix.size());
+    bool accepted = false;
+    for (const std::string& expected : tokens)
+        accepted |= token.size() == expected.size() &&
+                    CRYPTO_memcmp(token.data(), expected.data(), expected.size()) == 0;
+    return accepted;
+}
+
 void plainText(httplib::Response& response, int status, const std::string& text) {
     response.status = status;
     response.set_content(text + "\n", "text/plain; charset=utf-8");
@@ -91,13 +105,23 @@ HttpServer::HttpServer(HttpServerOptions options) : m_options(std::move(options)
     m_server->set_socket_options(socketOptions);
     m_server->set_pre_routing_handler([this](const httplib::Request& request,
                                              httplib::Response& response) {
-        if (m_anonymousPaths.count(request.path) || authorized(request))
+        auto route = m_routes.find(request.path);
+        if (route != m_routes.end() &&
+            (route->second.anonymous || carriesOneOf(request, route->second.tokens)))
             return httplib::Server::HandlerResponse::Unhandled;
-        response.set_header("WWW-Authenticate", "Bearer realm=\"alphorn\"");
-        plainText(response, 401, "401 unauthorized: send the header Authorization: Bearer <token>");
+        const bool known = carriesOneOf(request, m_allTokens);
+        if (known && route == m_routes.end())
+            return httplib::Server::HandlerResponse::Unhandled;  // 404 from the error handler
         logWarning("http.refused", {field("path", request.path),
                                     field("peer", request.remote_addr + ":" +
                                                       std::to_string(request.remote_port))});
+        if (known) {
+            plainText(response, 403, "403 forbidden: this token does not open " + request.path);
+        } else {
+            response.set_header("WWW-Authenticate", "Bearer realm=\"alphorn\"");
+            plainText(response, 401,
+                      "401 unauthorized: send the header Authorization: Bearer <token>");
+        }
         return httplib::Server::HandlerResponse::Handled;
     });
     m_server->set_error_handler([](const httplib::Request& request, httplib::Response& response) {
@@ -121,8 +145,14 @@ HttpServer::~HttpServer() {
     stop();
 }
 
-void HttpServer::get(const std::string& path, Access access, Handler handler) {
-    if (access == Access::Anonymous) m_anonymousPaths.insert(path);
+void HttpServer::get(const std::string& path, RouteAccess access, Handler handler) {
+    if (!access.anonymous && access.tokens.empty())
+        fail("HTTP route %s: no token may use it and it is not open to anyone", path);
+    for (const std::string& token : access.tokens) {
+        if (token.empty()) fail("HTTP route %s: an empty token", path);
+        m_allTokens.push_back(token);
+    }
+    m_routes[path] = std::move(access);
     // httplib matches patterns as regular expressions; paths are matched literally.
     std::string pattern;
     for (char c : path) {
@@ -131,19 +161,6 @@ void HttpServer::get(const std::string& path, Access access, Handler handler) {
         pattern += c;
     }
     m_server->Get(pattern, std::move(handler));
-}
-
-bool HttpServer::authorized(const httplib::Request& request) const {
-    const std::string value = request.get_header_value("Authorization");
-    const std::string_view prefix = "Bearer ";
-    if (value.compare(0, prefix.size(), prefix) != 0) return false;
-    const std::string_view token = std::string_view(value).substr(prefix.size());
-    bool accepted = false;
-    // Every token is compared, in constant time, so timing tells nothing about which matched.
-    for (const std::string& expected : m_options.tokens)
-        accepted |= !expected.empty() && token.size() == expected.size() &&
-                    CRYPTO_memcmp(token.data(), expected.data(), expected.size()) == 0;
-    return accepted;
 }
 
 void HttpServer::start() {

@@ -1,19 +1,22 @@
 // The daemons' one HTTP server (cpp-httplib from Debian): /metrics now, the coordinator's web
 // dashboard later. Off unless a daemon is given --http-listen. It speaks TLS with the daemon's
-// certificate when it has one, and every route needs an `Authorization: Bearer <token>` header
-// with one of the tokens it is given, unless the route was registered as anonymous.
+// certificate when it has one, and each route names the bearer tokens it accepts
+// (`Authorization: Bearer <token>`), or is explicitly open to anyone.
 //
-// A request without an accepted token is answered 401 before routing, whatever its path, so
-// nobody learns which paths exist without a token; an authenticated request to an unknown path
-// gets 404.
+// A request that no route's token authorizes is answered 401 before routing, whatever its path,
+// so nobody learns which paths exist without a token; a request with a token the server knows
+// gets 404 for an unknown path and 403 for a route that token does not open.
 #pragma once
 
 #include <httplib.h>
+// <resolv.h>, which httplib.h includes, defines `_res` as a macro, and Eigen (among others) uses
+// the name for parameters. Nothing here needs the resolver's state.
+#undef _res
 
 #include <atomic>
 #include <functional>
 #include <memory>
-#include <set>
+#include <map>
 #include <string>
 #include <thread>
 #include <vector>
@@ -21,20 +24,22 @@
 namespace alphorn::farm {
 
 struct HttpServerOptions {
-    std::string listen;  // HOST:PORT ([IPV6]:PORT); port 0 picks a free one
+    std::string listen = {};  // HOST:PORT ([IPV6]:PORT); port 0 picks a free one
     // PEM certificate chain and private key: serve HTTPS only. Both or neither.
-    std::string tlsCertPath, tlsKeyPath;
-    // Accepted bearer tokens (compared in constant time); at least one unless every route is
-    // anonymous.
-    std::vector<std::string> tokens;
+    std::string tlsCertPath = {}, tlsKeyPath = {};
     // Request handler threads.
     int threads = 4;
+};
+
+// Who may use a route.
+struct RouteAccess {
+    std::vector<std::string> tokens;  // any of these bearer tokens (compared in constant time)
+    bool anonymous = false;           // anyone, without a token: only when explicitly configured
 };
 
 class HttpServer {
   public:
     using Handler = std::function<void(const httplib::Request&, httplib::Response&)>;
-    enum class Access { Token, Anonymous };
 
     // Loads the certificate (throws Error naming the file when it cannot); does not listen yet.
     explicit HttpServer(HttpServerOptions options);
@@ -42,8 +47,9 @@ class HttpServer {
     HttpServer(const HttpServer&) = delete;
     HttpServer& operator=(const HttpServer&) = delete;
 
-    // Routes are added before start(). `path` is matched exactly.
-    void get(const std::string& path, Access access, Handler handler);
+    // Routes are added before start(). `path` is matched exactly. Throws Error for a route that
+    // is neither anonymous nor given a token.
+    void get(const std::string& path, RouteAccess access, Handler handler);
 
     // Binds the address (throws Error "cannot listen on ..." when it is taken or invalid) and
     // serves on a thread of its own until stop().
@@ -52,13 +58,11 @@ class HttpServer {
     int port() const { return m_port; }
     bool tls() const { return !m_options.tlsCertPath.empty(); }
 
-    // Whether `request` carries one of the accepted tokens.
-    bool authorized(const httplib::Request& request) const;
-
   private:
     HttpServerOptions m_options;
     std::unique_ptr<httplib::Server> m_server;
-    std::set<std::string> m_anonymousPaths;
+    std::map<std::string, RouteAccess> m_routes;  // by path
+    std::vector<std::string> m_allTokens;         // of every route
     std::thread m_thread;
     std::atomic<bool> m_listenEnded{false};
     int m_port = 0;

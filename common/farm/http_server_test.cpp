@@ -24,19 +24,25 @@ httplib::Headers bearer(const std::string& token) {
     return {{"Authorization", "Bearer " + token}};
 }
 
+const std::string kViewerToken = "00001111222233334444555566667777";
+
+// /secret opens to kToken and kOtherToken, /view to kViewerToken only, /open to anyone.
 void addRoutes(HttpServer& server) {
-    server.get("/secret", HttpServer::Access::Token,
+    server.get("/secret", {{kToken, kOtherToken}},
                [](const httplib::Request&, httplib::Response& response) {
                    response.set_content("the secret\n", "text/plain");
                });
-    server.get("/open", HttpServer::Access::Anonymous,
+    server.get("/view", {{kViewerToken}},
                [](const httplib::Request&, httplib::Response& response) {
-                   response.set_content("open to all\n", "text/plain");
+                   response.set_content("a view\n", "text/plain");
                });
+    server.get("/open", {{}, true}, [](const httplib::Request&, httplib::Response& response) {
+        response.set_content("open to all\n", "text/plain");
+    });
 }
 
 TEST(HttpServerTest, ServesOnlyRequestsWithAnAcceptedToken) {
-    HttpServer server({"127.0.0.1:0", "", "", {kToken, kOtherToken}});
+    HttpServer server({"127.0.0.1:0"});
     addRoutes(server);
     server.start();
     ASSERT_GT(server.port(), 0);
@@ -68,8 +74,32 @@ TEST(HttpServerTest, ServesOnlyRequestsWithAnAcceptedToken) {
     server.stop();
 }
 
+TEST(HttpServerTest, ATokenOpensOnlyItsRoutes) {
+    HttpServer server({"127.0.0.1:0"});
+    addRoutes(server);
+    server.start();
+    httplib::Client client("127.0.0.1", server.port());
+    auto viewer = client.Get("/view", bearer(kViewerToken));
+    ASSERT_TRUE(viewer);
+    EXPECT_EQ(viewer->status, 200);
+    auto other = client.Get("/secret", bearer(kViewerToken));
+    ASSERT_TRUE(other);
+    EXPECT_EQ(other->status, 403);
+    EXPECT_EQ(other->body.find("the secret"), std::string::npos);
+    auto reverse = client.Get("/view", bearer(kToken));
+    ASSERT_TRUE(reverse);
+    EXPECT_EQ(reverse->status, 403);
+}
+
+TEST(HttpServerTest, ARouteNeedsATokenOrExplicitlyAnyone) {
+    HttpServer server({"127.0.0.1:0"});
+    const auto handler = [](const httplib::Request&, httplib::Response&) {};
+    EXPECT_THROW(server.get("/nobody", {}, handler), Error);
+    EXPECT_THROW(server.get("/empty", {{""}}, handler), Error);
+}
+
 TEST(HttpServerTest, UnknownPathsAre401WithoutATokenAnd404WithOne) {
-    HttpServer server({"127.0.0.1:0", "", "", {kToken}});
+    HttpServer server({"127.0.0.1:0"});
     addRoutes(server);
     server.start();
     httplib::Client client("127.0.0.1", server.port());
@@ -87,7 +117,7 @@ TEST(HttpServerTest, UnknownPathsAre401WithoutATokenAnd404WithOne) {
 }
 
 TEST(HttpServerTest, AnonymousRoutesNeedNoToken) {
-    HttpServer server({"127.0.0.1:0", "", "", {kToken}});
+    HttpServer server({"127.0.0.1:0"});
     addRoutes(server);
     server.start();
     httplib::Client client("127.0.0.1", server.port());
@@ -101,9 +131,9 @@ TEST(HttpServerTest, AnonymousRoutesNeedNoToken) {
 }
 
 TEST(HttpServerTest, ASecondServerCannotTakeTheSamePort) {
-    HttpServer first({"127.0.0.1:0", "", "", {kToken}});
+    HttpServer first({"127.0.0.1:0"});
     first.start();
-    HttpServer second({"127.0.0.1:" + std::to_string(first.port()), "", "", {kToken}});
+    HttpServer second({"127.0.0.1:" + std::to_string(first.port())});
     try {
         second.start();
         FAIL() << "a second server listened on the same port";
@@ -114,9 +144,9 @@ TEST(HttpServerTest, ASecondServerCannotTakeTheSamePort) {
 }
 
 TEST(HttpServerTest, BadAddressesAreRefusedClearly) {
-    EXPECT_THROW(HttpServer({"127.0.0.1", "", "", {kToken}}), Error);
-    EXPECT_THROW(HttpServer({"127.0.0.1:99999", "", "", {kToken}}), Error);
-    EXPECT_THROW(HttpServer({"127.0.0.1:http", "", "", {kToken}}), Error);
+    EXPECT_THROW(HttpServer({"127.0.0.1"}), Error);
+    EXPECT_THROW(HttpServer({"127.0.0.1:99999"}), Error);
+    EXPECT_THROW(HttpServer({"127.0.0.1:http"}), Error);
     EXPECT_EQ(splitHostPort("[::1]:9100"), std::make_pair(std::string("::1"), 9100));
     EXPECT_EQ(splitHostPort("0.0.0.0:0"), std::make_pair(std::string("0.0.0.0"), 0));
 }
@@ -161,7 +191,7 @@ TestCertificate makeCertificate(const fs::path& directory) {
 
 TEST(HttpServerTest, ServesHttpsWithTheDaemonsCertificate) {
     const TestCertificate files = makeCertificate(fs::path(testing::TempDir()) / "http_tls");
-    HttpServer server({"127.0.0.1:0", files.certPath, files.keyPath, {kToken}});
+    HttpServer server({"127.0.0.1:0", files.certPath, files.keyPath});
     ASSERT_TRUE(server.tls());
     addRoutes(server);
     server.start();
@@ -188,20 +218,20 @@ TEST(HttpServerTest, ACertificateThatDoesNotLoadIsNamed) {
     const TestCertificate files = makeCertificate(fs::path(testing::TempDir()) / "http_tls_bad");
     const std::string missing = (fs::path(testing::TempDir()) / "missing.pem").string();
     try {
-        HttpServer server({"127.0.0.1:0", missing, files.keyPath, {kToken}});
+        HttpServer server({"127.0.0.1:0", missing, files.keyPath});
         FAIL() << "a missing certificate was accepted";
     } catch (const Error& e) {
         EXPECT_NE(std::string(e.what()).find(missing), std::string::npos) << e.what();
     }
     const TestCertificate other = makeCertificate(fs::path(testing::TempDir()) / "http_tls_other");
     try {
-        HttpServer server({"127.0.0.1:0", files.certPath, other.keyPath, {kToken}});
+        HttpServer server({"127.0.0.1:0", files.certPath, other.keyPath});
         FAIL() << "a key of another certificate was accepted";
     } catch (const Error& e) {
         EXPECT_NE(std::string(e.what()).find(other.keyPath), std::string::npos) << e.what();
         EXPECT_NE(std::string(e.what()).find("mismatch"), std::string::npos) << e.what();
     }
-    EXPECT_THROW(HttpServer({"127.0.0.1:0", files.certPath, "", {kToken}}), Error);
+    EXPECT_THROW(HttpServer({"127.0.0.1:0", files.certPath, ""}), Error);
 }
 
 }  // namespace

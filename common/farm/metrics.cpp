@@ -129,10 +129,12 @@ struct WorkerFamilies {
         BuildCounter()
             .Name("alphorn_worker_results_total")
             .Help("Results that left this worker, by the coordinator's answer: merged, "
-                  "discarded (merged already or reassigned), refused, or abandoned (stopping)")
+                  "discarded (merged already or reassigned), recorded (a failure or hand-back), "
+                  "refused, or abandoned (stopping, or the worker could not register again)")
             .Register(*registry);
     Counter& deliveredMerged = deliveredFamily.Add({{"outcome", "merged"}});
     Counter& deliveredDiscarded = deliveredFamily.Add({{"outcome", "discarded"}});
+    Counter& deliveredRecorded = deliveredFamily.Add({{"outcome", "recorded"}});
     Counter& deliveredRefused = deliveredFamily.Add({{"outcome", "refused"}});
     Counter& deliveredAbandoned = deliveredFamily.Add({{"outcome", "abandoned"}});
     Histogram& delivery = histogram(*registry, "alphorn_worker_delivery_seconds",
@@ -152,7 +154,7 @@ WorkerFamilies& workerFamilies() {
 
 // ---- coordinator -------------------------------------------------------------------------------
 
-std::shared_ptr<prometheus::Registry> CoordinatorMetrics::registry() {
+std::shared_ptr<prometheus::Collectable> CoordinatorMetrics::registry() {
     return coordinatorFamilies().registry;
 }
 
@@ -203,7 +205,7 @@ void CoordinatorMetrics::blobStored(uint64_t bytes) {
 
 // ---- worker ------------------------------------------------------------------------------------
 
-std::shared_ptr<prometheus::Registry> WorkerMetrics::registry() {
+std::shared_ptr<prometheus::Collectable> WorkerMetrics::registry() {
     return workerFamilies().registry;
 }
 
@@ -238,6 +240,9 @@ void WorkerMetrics::resultDelivered(Delivery outcome, double seconds) {
         case Delivery::Discarded:
             f.deliveredDiscarded.Increment();
             break;
+        case Delivery::Recorded:
+            f.deliveredRecorded.Increment();
+            break;
         case Delivery::Refused:
             f.deliveredRefused.Increment();
             break;
@@ -264,8 +269,8 @@ std::string metricsText(const std::vector<std::shared_ptr<prometheus::Collectabl
 
 void serveMetrics(HttpServer& server,
                   std::vector<std::shared_ptr<prometheus::Collectable>> collectables,
-                  bool anonymous) {
-    server.get("/metrics", anonymous ? HttpServer::Access::Anonymous : HttpServer::Access::Token,
+                  const RouteAccess& access) {
+    server.get("/metrics", access,
                [collectables = std::move(collectables)](const httplib::Request&,
                                                         httplib::Response& response) {
                    response.set_content(metricsText(collectables),

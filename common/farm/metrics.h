@@ -17,12 +17,12 @@
 
 namespace prometheus {
 class Collectable;
-class Registry;
 }  // namespace prometheus
 
 namespace alphorn::farm {
 
 class HttpServer;
+struct RouteAccess;
 
 // Seconds since construction, on the monotonic clock (for latency histograms; the coordinator's
 // own Clock is for its decisions, which a simulation may drive).
@@ -39,7 +39,8 @@ class Stopwatch {
 
 // Events of the coordinator.
 struct CoordinatorMetrics {
-    static std::shared_ptr<prometheus::Registry> registry();
+    // The registry to serve (serveMetrics).
+    static std::shared_ptr<prometheus::Collectable> registry();
 
     // A unit was leased to a worker; `again` when it had been leased before in this process
     // (its earlier lease failed, expired or was handed back).
@@ -63,7 +64,8 @@ struct CoordinatorMetrics {
 
 // Events of a worker.
 struct WorkerMetrics {
-    static std::shared_ptr<prometheus::Registry> registry();
+    // The registry to serve (serveMetrics).
+    static std::shared_ptr<prometheus::Collectable> registry();
 
     // An AcquireWork exchange that ended with a unit: `seconds` from asking until the unit was
     // there, across empty long polls and retries.
@@ -74,16 +76,18 @@ struct WorkerMetrics {
     static void unitFailed();
     // Per-pass data (photon maps) was built: `photons` photon paths traced.
     static void passDataBuilt(uint64_t photons);
-    enum class Delivery { Merged, Discarded, Refused, Abandoned };
+    // Merged; discarded (merged already or reassigned); recorded (a failure or a hand-back the
+    // coordinator took note of); refused; abandoned (stopping, or could not register again).
+    enum class Delivery { Merged, Discarded, Recorded, Refused, Abandoned };
     // A result left the worker's hands, `seconds` after its first delivery attempt.
     static void resultDelivered(Delivery outcome, double seconds);
 };
 
-// Serves the exposition text of `collectables` (in order) on GET /metrics of `server`, to
-// requests with one of the server's tokens, or to anyone when `anonymous`.
+// Serves the exposition text of `collectables` (in order) on GET /metrics of `server`, to whom
+// `access` allows.
 void serveMetrics(HttpServer& server,
                   std::vector<std::shared_ptr<prometheus::Collectable>> collectables,
-                  bool anonymous);
+                  const RouteAccess& access);
 // The exposition text (Prometheus text format 0.0.4) of `collectables`.
 std::string metricsText(const std::vector<std::shared_ptr<prometheus::Collectable>>& collectables);
 

@@ -5,7 +5,7 @@
 #include "common/farm/http_server.h"
 
 #include <gtest/gtest.h>
-#include <prometheus/registry.h>
+#include <prometheus/collectable.h>
 
 #include <sstream>
 
@@ -88,8 +88,8 @@ TEST(MetricsTest, EachDaemonServesOnlyItsOwnFamilies) {
 }
 
 TEST(MetricsTest, MetricsAreServedWithATokenOrAnonymouslyWhenAllowed) {
-    HttpServer guarded({"127.0.0.1:0", "", "", {kToken}});
-    serveMetrics(guarded, {CoordinatorMetrics::registry()}, false);
+    HttpServer guarded({"127.0.0.1:0"});
+    serveMetrics(guarded, {CoordinatorMetrics::registry()}, {{kToken}});
     guarded.start();
     httplib::Client guardedClient("127.0.0.1", guarded.port());
     EXPECT_EQ(guardedClient.Get("/metrics")->status, 401);
@@ -99,8 +99,8 @@ TEST(MetricsTest, MetricsAreServedWithATokenOrAnonymouslyWhenAllowed) {
     EXPECT_EQ(scraped->get_header_value("Content-Type"), "text/plain; version=0.0.4; charset=utf-8");
     EXPECT_GE(sample(scraped->body, "alphorn_units_handed_back_total"), 1);
 
-    HttpServer open({"127.0.0.1:0", "", "", {kToken}});
-    serveMetrics(open, {WorkerMetrics::registry()}, true);
+    HttpServer open({"127.0.0.1:0"});
+    serveMetrics(open, {WorkerMetrics::registry()}, {{}, true});
     open.start();
     httplib::Client openClient("127.0.0.1", open.port());
     auto anonymous = openClient.Get("/metrics");

@@ -85,10 +85,11 @@ Delivery deliveryOf(v1::ResultDisposition disposition) {
     }
 }
 
-// Photon paths traced for one pass's data: those of a photon mapper's pass, 0 for others.
-uint64_t photonsEmitted(const PassData* pass) {
+// Photon paths traced for one pass's data: those of a photon mapper's pass (the volumetric one
+// traces surface and volume photons along the same paths), 0 for other integrators.
+uint64_t photonsTraced(const PassData* pass) {
     const auto* photons = dynamic_cast<const PhotonPassData*>(pass);
-    return photons ? photons->emitted : 0;
+    return photons ? std::max(photons->emitted, photons->volumeEmitted) : 0;
 }
 
 // Everything the scene a unit is rendered with depends on, as one comparable string.
@@ -292,8 +293,15 @@ const std::vector<std::shared_ptr<const PassData>>& Worker::passDataFor(JobConte
     // Units of the same passes usually follow each other (all tiles of a chunk come first);
     // keep a few ranges so photon maps are built once per range, but never grow without bound.
     while (context.passes.size() >= 4) context.passes.erase(context.passes.begin());
+    // A photon mapper without progressive radii keeps one map for every pass: count each pass
+    // data once, not once per pass range (the ranges kept hold it, so its address is not reused).
+    std::set<const PassData*> counted;
+    for (const auto& [range, data] : context.passes)
+        for (const auto& pass : data) counted.insert(pass.get());
     auto& passes = context.passes[key] = preparePasses(*context.scene, context.seed, begin, end);
-    for (const auto& pass : passes) farm::WorkerMetrics::passDataBuilt(photonsEmitted(pass.get()));
+    for (const auto& pass : passes)
+        if (pass && counted.insert(pass.get()).second)
+            farm::WorkerMetrics::passDataBuilt(photonsTraced(pass.get()));
     return passes;
 }
 

@@ -74,7 +74,7 @@ struct WorkerMetrics {
     static void unitRendered(double seconds, uint64_t samples, uint64_t rays);
     // A unit that failed on this worker (its error goes to the coordinator).
     static void unitFailed();
-    // Per-pass data (photon maps) was built: `photons` photon paths traced.
+    // Per-pass data (a photon map) was built: `photons` photon paths traced.
     static void passDataBuilt(uint64_t photons);
     // Merged; discarded (merged already or reassigned); recorded (a failure or a hand-back the
     // coordinator took note of); refused; abandoned (stopping, or could not register again).

@@ -88,6 +88,8 @@ TEST(MetricsTest, EachDaemonServesOnlyItsOwnFamilies) {
 }
 
 TEST(MetricsTest, MetricsAreServedWithATokenOrAnonymouslyWhenAllowed) {
+    CoordinatorMetrics::unitHandedBack();
+    WorkerMetrics::unitFailed();
     HttpServer guarded({"127.0.0.1:0"});
     serveMetrics(guarded, {CoordinatorMetrics::registry()}, {{kToken}});
     guarded.start();

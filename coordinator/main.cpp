@@ -105,8 +105,9 @@ int main(int argc, char** argv) {
         if (!metricsTokenFile.empty()) {
             metricsToken = farm::readTokenFile(metricsTokenFile);
             if (metricsToken == workerToken)
-                fail("the metrics token must differ from the worker token (whoever scrapes "
-                     "metrics must not be able to pose as a worker)");
+                fail(
+                    "the metrics token must differ from the worker token (whoever scrapes "
+                    "metrics must not be able to pose as a worker)");
         }
         Coordinator coordinator(options);
         ClientServiceImpl clientService(coordinator, clientToken);

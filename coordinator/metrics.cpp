@@ -33,7 +33,8 @@ void addGauge(prometheus::MetricFamily& family, double value,
 // later, and a state with no job reads 0 rather than being absent.
 std::string stateLabel(const std::string& enumName) {
     const std::string prefix = "JOB_STATE_";
-    return absl::AsciiStrToLower(enumName.substr(enumName.rfind(prefix, 0) == 0 ? prefix.size() : 0));
+    return absl::AsciiStrToLower(
+        enumName.substr(enumName.rfind(prefix, 0) == 0 ? prefix.size() : 0));
 }
 
 }  // namespace
@@ -47,22 +48,24 @@ std::vector<prometheus::MetricFamily> CoordinatorStateMetrics::Collect() const {
         ++jobsByState[job.state()];
         if (job.state() != v1::JOB_STATE_RUNNING) continue;
         leased += job.units_leased();
-        pending += job.units_total() - std::min<uint64_t>(job.units_total(),
-                                                          job.units_done() + job.units_leased());
+        pending += job.units_total() -
+                   std::min<uint64_t>(job.units_total(), job.units_done() + job.units_leased());
     }
-    auto jobs = family("alphorn_jobs", "Jobs the coordinator knows, by state (ended jobs stay "
-                                       "until --keep-finished-hours)",
+    auto jobs = family("alphorn_jobs",
+                       "Jobs the coordinator knows, by state (ended jobs stay "
+                       "until --keep-finished-hours)",
                        prometheus::MetricType::Gauge);
     const google::protobuf::EnumDescriptor* states = v1::JobState_descriptor();
     for (int i = 0; i < states->value_count(); ++i) {
         const auto* state = states->value(i);
         if (state->number() == v1::JOB_STATE_UNSPECIFIED) continue;
-        addGauge(jobs, double(jobsByState[state->number()]), {{"state", stateLabel(state->name())}});
+        addGauge(jobs, double(jobsByState[state->number()]),
+                 {{"state", stateLabel(state->name())}});
     }
     families.push_back(std::move(jobs));
-    auto pendingUnits = family("alphorn_pending_units",
-                               "Units of running jobs waiting for a worker",
-                               prometheus::MetricType::Gauge);
+    auto pendingUnits =
+        family("alphorn_pending_units", "Units of running jobs waiting for a worker",
+               prometheus::MetricType::Gauge);
     addGauge(pendingUnits, double(pending));
     families.push_back(std::move(pendingUnits));
     auto leasedUnits = family("alphorn_leased_units", "Units leased to workers right now",

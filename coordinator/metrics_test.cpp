@@ -114,8 +114,10 @@ TEST_F(CoordinatorMetricsTest, FollowJobsUnitsWorkersAndBlobs) {
     registration.set_name("metrics-worker");
     const uint64_t worker = coordinator.registerWorker(registration);
 
-    const v1::AcquireWorkResponse first = coordinator.acquire(worker, std::chrono::steady_clock::now());
-    const v1::AcquireWorkResponse second = coordinator.acquire(worker, std::chrono::steady_clock::now());
+    const v1::AcquireWorkResponse first =
+        coordinator.acquire(worker, std::chrono::steady_clock::now());
+    const v1::AcquireWorkResponse second =
+        coordinator.acquire(worker, std::chrono::steady_clock::now());
     ASSERT_TRUE(first.has_work() && second.has_work());
     const std::string leased = scrape(coordinator);
     EXPECT_EQ(sample(leased, "alphorn_jobs{state=\"running\"}"), 1);
@@ -124,9 +126,9 @@ TEST_F(CoordinatorMetricsTest, FollowJobsUnitsWorkersAndBlobs) {
     EXPECT_EQ(sample(leased, "alphorn_workers{state=\"alive\"}"), 1);
     EXPECT_EQ(sample(leased, "alphorn_blob_store_bytes"), double(bundleBytes));
     EXPECT_EQ(sample(leased, "alphorn_blob_store_blobs"), double(bundle.files.size()));
-    EXPECT_EQ(sample(leased, "alphorn_units_leased_total") -
-                  sample(empty, "alphorn_units_leased_total"),
-              2);
+    EXPECT_EQ(
+        sample(leased, "alphorn_units_leased_total") - sample(empty, "alphorn_units_leased_total"),
+        2);
     EXPECT_EQ(sample(leased, "alphorn_blob_uploaded_bytes_total") -
                   sample(empty, "alphorn_blob_uploaded_bytes_total"),
               double(bundleBytes));
@@ -161,9 +163,10 @@ TEST_F(CoordinatorMetricsTest, FollowJobsUnitsWorkersAndBlobs) {
     EXPECT_EQ(delta("alphorn_units_leased_total"), 13);
     EXPECT_EQ(delta("alphorn_units_leased_again_total"), 1);
     EXPECT_EQ(delta("alphorn_units_handed_back_total"), 1);
-    EXPECT_EQ(sample(done, "alphorn_worker_units_merged_total{worker=\"metrics-worker\",worker_id=\"" +
-                               std::to_string(worker) + "\"}"),
-              12);
+    EXPECT_EQ(
+        sample(done, "alphorn_worker_units_merged_total{worker=\"metrics-worker\",worker_id=\"" +
+                         std::to_string(worker) + "\"}"),
+        12);
     EXPECT_GE(delta("alphorn_checkpoint_write_seconds_count"), 1);  // the final checkpoint
     EXPECT_GT(delta("alphorn_checkpoint_written_bytes_total"), 0);
 }

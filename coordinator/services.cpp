@@ -327,7 +327,8 @@ grpc::Status WorkerServiceImpl::ReportResult(grpc::ServerContext* context,
                                 "the result stream ended early");
         const v1::ResultDisposition disposition = m_coordinator.report(header, data);
         response->set_disposition(disposition);
-        if (disposition == v1::RESULT_MERGED) farm::CoordinatorMetrics::resultMerged(call.seconds());
+        if (disposition == v1::RESULT_MERGED)
+            farm::CoordinatorMetrics::resultMerged(call.seconds());
         if (disposition == v1::RESULT_MERGED)
             logInfo("unit.merged",
                     {field("job", header.job_id()), field("unit", header.unit_index()),

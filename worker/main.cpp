@@ -44,12 +44,10 @@ int main(int argc, char** argv) {
     app.add_option("--http-port-file", httpPortFile,
                    "Write the bound HTTP port to this file once listening")
         ->needs(http);
-    CLI::Option* cert =
-        app.add_option("--http-tls-cert", httpTlsCert,
-                       "PEM certificate chain: serve HTTPS (with --http-tls-key)")
-            ->needs(http);
-    app.add_option("--http-tls-key", httpTlsKey, "PEM private key of --http-tls-cert")
-        ->needs(cert);
+    CLI::Option* cert = app.add_option("--http-tls-cert", httpTlsCert,
+                                       "PEM certificate chain: serve HTTPS (with --http-tls-key)")
+                            ->needs(http);
+    app.add_option("--http-tls-key", httpTlsKey, "PEM private key of --http-tls-cert")->needs(cert);
     cert->needs("--http-tls-key");
     app.add_option("--metrics-token-file", metricsTokenFile,
                    "File holding a token that may read /metrics and nothing else (for "
@@ -89,11 +87,11 @@ int main(int argc, char** argv) {
                 farm::HttpServerOptions{httpListen, httpTlsCert, httpTlsKey});
             farm::serveMetrics(*httpServer, {farm::WorkerMetrics::registry()}, metricsAccess);
             httpServer->start();
-            farm::logInfo("http.listening",
-                          {farm::field("address", httpListen),
-                           farm::field("port", httpServer->port()),
-                           farm::field("tls", httpServer->tls() ? "on" : "off"),
-                           farm::field("anonymous_metrics", anonymousMetrics ? "yes" : "no")});
+            farm::logInfo(
+                "http.listening",
+                {farm::field("address", httpListen), farm::field("port", httpServer->port()),
+                 farm::field("tls", httpServer->tls() ? "on" : "off"),
+                 farm::field("anonymous_metrics", anonymousMetrics ? "yes" : "no")});
             if (!httpPortFile.empty()) {
                 std::ofstream(httpPortFile + ".tmp") << httpServer->port() << "\n";
                 std::rename((httpPortFile + ".tmp").c_str(), httpPortFile.c_str());

@@ -80,8 +80,8 @@ HttpServer::HttpServer(HttpServerOptions options) : m_options(std::move(options)
                 return false;
             }
             if (SSL_CTX_use_certificate_chain_file(&context, m_options.tlsCertPath.c_str()) != 1) {
-                problem = m_options.tlsCertPath + ": cannot load the certificate chain: " +
-                          openSslError();
+                problem = m_options.tlsCertPath +
+                          ": cannot load the certificate chain: " + openSslError();
                 return false;
             }
             if (SSL_CTX_use_PrivateKey_file(&context, m_options.tlsKeyPath.c_str(),
@@ -103,27 +103,27 @@ HttpServer::HttpServer(HttpServerOptions options) : m_options(std::move(options)
     const int threads = std::max(1, m_options.threads);
     m_server->new_task_queue = [threads] { return new httplib::ThreadPool(size_t(threads)); };
     m_server->set_socket_options(socketOptions);
-    m_server->set_pre_routing_handler([this](const httplib::Request& request,
-                                             httplib::Response& response) {
-        auto route = m_routes.find(request.path);
-        if (route != m_routes.end() &&
-            (route->second.anonymous || carriesOneOf(request, route->second.tokens)))
-            return httplib::Server::HandlerResponse::Unhandled;
-        const bool known = carriesOneOf(request, m_allTokens);
-        if (known && route == m_routes.end())
-            return httplib::Server::HandlerResponse::Unhandled;  // 404 from the error handler
-        logWarning("http.refused", {field("path", request.path),
-                                    field("peer", request.remote_addr + ":" +
-                                                      std::to_string(request.remote_port))});
-        if (known) {
-            plainText(response, 403, "403 forbidden: this token does not open " + request.path);
-        } else {
-            response.set_header("WWW-Authenticate", "Bearer realm=\"alphorn\"");
-            plainText(response, 401,
-                      "401 unauthorized: send the header Authorization: Bearer <token>");
-        }
-        return httplib::Server::HandlerResponse::Handled;
-    });
+    m_server->set_pre_routing_handler(
+        [this](const httplib::Request& request, httplib::Response& response) {
+            auto route = m_routes.find(request.path);
+            if (route != m_routes.end() &&
+                (route->second.anonymous || carriesOneOf(request, route->second.tokens)))
+                return httplib::Server::HandlerResponse::Unhandled;
+            const bool known = carriesOneOf(request, m_allTokens);
+            if (known && route == m_routes.end())
+                return httplib::Server::HandlerResponse::Unhandled;  // 404 from the error handler
+            logWarning("http.refused", {field("path", request.path),
+                                        field("peer", request.remote_addr + ":" +
+                                                          std::to_string(request.remote_port))});
+            if (known) {
+                plainText(response, 403, "403 forbidden: this token does not open " + request.path);
+            } else {
+                response.set_header("WWW-Authenticate", "Bearer realm=\"alphorn\"");
+                plainText(response, 401,
+                          "401 unauthorized: send the header Authorization: Bearer <token>");
+            }
+            return httplib::Server::HandlerResponse::Handled;
+        });
     m_server->set_error_handler([](const httplib::Request& request, httplib::Response& response) {
         if (response.status == 404) plainText(response, 404, "404 not found: " + request.path);
     });
@@ -156,8 +156,7 @@ void HttpServer::get(const std::string& path, RouteAccess access, Handler handle
     // httplib matches patterns as regular expressions; paths are matched literally.
     std::string pattern;
     for (char c : path) {
-        if (std::string_view(".^$|()[]{}*+?\\").find(c) != std::string_view::npos)
-            pattern += '\\';
+        if (std::string_view(".^$|()[]{}*+?\\").find(c) != std::string_view::npos) pattern += '\\';
         pattern += c;
     }
     m_server->Get(pattern, std::move(handler));
@@ -167,8 +166,9 @@ void HttpServer::start() {
     const auto [host, port] = splitHostPort(m_options.listen);
     m_port = port == 0 ? m_server->bind_to_any_port(host)
                        : (m_server->bind_to_port(host, port) ? port : -1);
-    if (m_port <= 0) fail("cannot listen on %s (HTTP): in use or not an address of this machine",
-                          m_options.listen);
+    if (m_port <= 0)
+        fail("cannot listen on %s (HTTP): in use or not an address of this machine",
+             m_options.listen);
     m_listenEnded = false;
     m_thread = std::thread([this] {
         m_server->listen_after_bind();
@@ -176,7 +176,8 @@ void HttpServer::start() {
     });
     // httplib's stop() does nothing before the listening loop runs: wait for it, so that a
     // stop() right after start() cannot leave the thread serving forever.
-    while (!m_server->is_running() && !m_listenEnded) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    while (!m_server->is_running() && !m_listenEnded)
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
 }
 
 void HttpServer::stop() {

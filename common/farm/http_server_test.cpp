@@ -32,10 +32,9 @@ void addRoutes(HttpServer& server) {
                [](const httplib::Request&, httplib::Response& response) {
                    response.set_content("the secret\n", "text/plain");
                });
-    server.get("/view", {{kViewerToken}},
-               [](const httplib::Request&, httplib::Response& response) {
-                   response.set_content("a view\n", "text/plain");
-               });
+    server.get("/view", {{kViewerToken}}, [](const httplib::Request&, httplib::Response& response) {
+        response.set_content("a view\n", "text/plain");
+    });
     server.get("/open", {{}, true}, [](const httplib::Request&, httplib::Response& response) {
         response.set_content("open to all\n", "text/plain");
     });
@@ -173,8 +172,8 @@ TestCertificate makeCertificate(const fs::path& directory) {
     X509V3_CTX context;
     X509V3_set_ctx_nodb(&context);
     X509V3_set_ctx(&context, cert, cert, nullptr, nullptr, 0);
-    X509_EXTENSION* san = X509V3_EXT_conf_nid(nullptr, &context, NID_subject_alt_name,
-                                              "IP:127.0.0.1,DNS:localhost");
+    X509_EXTENSION* san =
+        X509V3_EXT_conf_nid(nullptr, &context, NID_subject_alt_name, "IP:127.0.0.1,DNS:localhost");
     X509_add_ext(cert, san, -1);
     X509_EXTENSION_free(san);
     X509_sign(cert, key, EVP_sha256());

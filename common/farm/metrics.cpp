@@ -68,16 +68,17 @@ struct CoordinatorFamilies {
     prometheus::Family<Counter>& failedFamily =
         BuildCounter()
             .Name("alphorn_units_failed_total")
-            .Help("Failed unit attempts: reported by the worker (worker_error) or its lease "
-                  "expired without a heartbeat (lease_expired)")
+            .Help(
+                "Failed unit attempts: reported by the worker (worker_error) or its lease "
+                "expired without a heartbeat (lease_expired)")
             .Register(*registry);
     Counter& failedWorkerError = failedFamily.Add({{"cause", "worker_error"}});
     Counter& failedLeaseExpired = failedFamily.Add({{"cause", "lease_expired"}});
     Counter& handedBack = counter(*registry, "alphorn_units_handed_back_total",
                                   "Units a stopping worker gave back unrendered");
-    Histogram& leaseWait = histogram(*registry, "alphorn_lease_wait_seconds",
-                                     "Time from an AcquireWork call to the unit it leased",
-                                     secondsBuckets());
+    Histogram& leaseWait =
+        histogram(*registry, "alphorn_lease_wait_seconds",
+                  "Time from an AcquireWork call to the unit it leased", secondsBuckets());
     Histogram& result = histogram(*registry, "alphorn_result_seconds",
                                   "Time a ReportResult call that merged its unit took "
                                   "(receiving, checking, decompressing, merging)",
@@ -93,8 +94,8 @@ struct CoordinatorFamilies {
     Counter& blobBytes = counter(*registry, "alphorn_blob_uploaded_bytes_total",
                                  "Bytes of blobs uploaded and stored (a blob already stored "
                                  "is not counted again)");
-    Counter& blobCount = counter(*registry, "alphorn_blobs_uploaded_total",
-                                 "Blobs uploaded and stored");
+    Counter& blobCount =
+        counter(*registry, "alphorn_blobs_uploaded_total", "Blobs uploaded and stored");
 
     CoordinatorFamilies() { addBuildInfo(*registry); }
 };
@@ -112,8 +113,8 @@ struct WorkerFamilies {
                                      secondsBuckets());
     Histogram& render = histogram(*registry, "alphorn_worker_render_seconds",
                                   "Time to render one unit (renderUnit)", secondsBuckets());
-    Counter& rendered = counter(*registry, "alphorn_worker_units_rendered_total",
-                                "Units rendered completely");
+    Counter& rendered =
+        counter(*registry, "alphorn_worker_units_rendered_total", "Units rendered completely");
     Counter& failed = counter(*registry, "alphorn_worker_units_failed_total",
                               "Units that failed on this worker (their error went to the "
                               "coordinator)");
@@ -128,9 +129,10 @@ struct WorkerFamilies {
     prometheus::Family<Counter>& deliveredFamily =
         BuildCounter()
             .Name("alphorn_worker_results_total")
-            .Help("Results that left this worker, by the coordinator's answer: merged, "
-                  "discarded (merged already or reassigned), recorded (a failure or hand-back), "
-                  "refused, or abandoned (stopping, or the worker could not register again)")
+            .Help(
+                "Results that left this worker, by the coordinator's answer: merged, "
+                "discarded (merged already or reassigned), recorded (a failure or hand-back), "
+                "refused, or abandoned (stopping, or the worker could not register again)")
             .Register(*registry);
     Counter& deliveredMerged = deliveredFamily.Add({{"outcome", "merged"}});
     Counter& deliveredDiscarded = deliveredFamily.Add({{"outcome", "discarded"}});

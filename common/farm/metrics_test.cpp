@@ -98,7 +98,8 @@ TEST(MetricsTest, MetricsAreServedWithATokenOrAnonymouslyWhenAllowed) {
     auto scraped = guardedClient.Get("/metrics", {{"Authorization", "Bearer " + kToken}});
     ASSERT_TRUE(scraped);
     EXPECT_EQ(scraped->status, 200);
-    EXPECT_EQ(scraped->get_header_value("Content-Type"), "text/plain; version=0.0.4; charset=utf-8");
+    EXPECT_EQ(scraped->get_header_value("Content-Type"),
+              "text/plain; version=0.0.4; charset=utf-8");
     EXPECT_GE(sample(scraped->body, "alphorn_units_handed_back_total"), 1);
 
     HttpServer open({"127.0.0.1:0"});

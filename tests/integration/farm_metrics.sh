@@ -124,4 +124,22 @@ expect 'alphorn_blob_uploaded_bytes_total' "$blob_bytes"
 expect 'sum(alphorn_worker_rays_total) >= bool '"$samples" 1
 expect 'alphorn_checkpoint_write_seconds_count >= bool 2' 1
 expect 'alphorn_checkpoint_written_bytes_total > bool 0' 1
+
+# With TLS the coordinator serves /metrics over HTTPS with its gRPC certificate, and only so.
+openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj "/CN=localhost" \
+    -addext "subjectAltName=DNS:localhost,IP:127.0.0.1" \
+    -keyout "$WORK/key.pem" -out "$WORK/cert.pem" >"$WORK/openssl.log" 2>&1 || fail "openssl failed"
+"$COORDINATOR" --listen 127.0.0.1:0 --state-dir "$WORK/tls-state" --client-token-file "$WORK/client.token" \
+    --worker-token-file "$WORK/worker.token" --tls-cert "$WORK/cert.pem" --tls-key "$WORK/key.pem" \
+    --http-listen 127.0.0.1:0 --http-port-file "$WORK/https.port" >>"$WORK/coordinator-tls.log" 2>&1 &
+PIDS+=("$!")
+wait_for_file "$WORK/https.port"
+HTTPS=$(cat "$WORK/https.port")
+curl -s --cacert "$WORK/cert.pem" -H "Authorization: Bearer $(cat "$WORK/client.token")" \
+    "https://127.0.0.1:$HTTPS/metrics" | grep -q '^alphorn_jobs{state="running"} 0' ||
+    fail "no metrics over HTTPS from a TLS coordinator"
+code=$(curl -s -o /dev/null -w '%{http_code}' --max-time 5 -H "Authorization: Bearer $(cat "$WORK/client.token")" \
+    "http://127.0.0.1:$HTTPS/metrics" || true)
+[[ $code != 200 ]] || fail "a TLS coordinator served /metrics over plain HTTP"
+pass "a TLS coordinator serves /metrics over HTTPS with its certificate only (plain HTTP: $code)"
 echo "PASS"

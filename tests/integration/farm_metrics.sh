@@ -4,7 +4,8 @@
 # scrapes them every second, and PromQL queries through its HTTP API must give the jobs' real
 # counts: units merged and leased = the job's units, samples = width x height x passes, jobs
 # done, photon paths traced = the photon passes built x photons per pass. /metrics without a
-# token, or with a token it does not accept, is refused.
+# token, or with a token it does not accept, is refused (401) unless --http-anonymous-metrics;
+# a TLS coordinator serves it over HTTPS only.
 PROMETHEUS=${PROMETHEUS:-/usr/bin/prometheus}
 if [[ ! -x $PROMETHEUS ]]; then
     echo "SKIP: $PROMETHEUS is missing (tools/install-deps.sh installs the prometheus package)"
@@ -23,10 +24,11 @@ wait_for_file() {
 
 start_coordinator 127.0.0.1:0 --http-listen 127.0.0.1:0 --http-port-file "$WORK/http.port" \
     --metrics-token-file "$WORK/metrics.token"
-for name in a b; do
-    start_worker "$name" --http-listen 127.0.0.1:0 --http-port-file "$WORK/http-$name.port" \
-        --metrics-token-file "$WORK/metrics.token"
-done
+start_worker a --http-listen 127.0.0.1:0 --http-port-file "$WORK/http-a.port" \
+    --metrics-token-file "$WORK/metrics.token"
+# Worker b lets anyone read its /metrics, as an operator may on a trusted network.
+start_worker b --http-listen 127.0.0.1:0 --http-port-file "$WORK/http-b.port" \
+    --metrics-token-file "$WORK/metrics.token" --http-anonymous-metrics
 for file in http.port http-a.port http-b.port; do wait_for_file "$WORK/$file"; done
 HTTP=$(cat "$WORK/http.port")
 HTTP_A=$(cat "$WORK/http-a.port")
@@ -47,6 +49,11 @@ status_of() {
 [[ $(status_of "http://127.0.0.1:$HTTP/nothing" "$(cat "$WORK/metrics.token")") == 404 ]] ||
     fail "an unknown path with a token was not 404"
 pass "/metrics without a token (or with the worker token at the coordinator) refused: 401"
+[[ $(status_of "http://127.0.0.1:$HTTP_B/metrics") == 200 ]] ||
+    fail "a worker with --http-anonymous-metrics refused /metrics without a token"
+[[ $(status_of "http://127.0.0.1:$HTTP_B/other") == 401 ]] ||
+    fail "--http-anonymous-metrics opened more than /metrics"
+pass "--http-anonymous-metrics serves /metrics, and nothing else, without a token"
 
 # Prometheus on a free loopback port, scraping all three every second with the metrics token.
 PROM_PORT=$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')

@@ -77,7 +77,7 @@ std::vector<prometheus::MetricFamily> CoordinatorStateMetrics::Collect() const {
                           "Workers by state: alive (called within three lease periods) or dead "
                           "(silent longer; forgotten after --keep-finished-hours)",
                           prometheus::MetricType::Gauge);
-    auto merged = family("alphorn_worker_units_merged_total",
+    auto merged = family("alphorn_units_merged_by_worker_total",
                          "Units each worker delivered that were merged, by this coordinator "
                          "process",
                          prometheus::MetricType::Counter);

@@ -164,7 +164,7 @@ TEST_F(CoordinatorMetricsTest, FollowJobsUnitsWorkersAndBlobs) {
     EXPECT_EQ(delta("alphorn_units_leased_again_total"), 1);
     EXPECT_EQ(delta("alphorn_units_handed_back_total"), 1);
     EXPECT_EQ(
-        sample(done, "alphorn_worker_units_merged_total{worker=\"metrics-worker\",worker_id=\"" +
+        sample(done, "alphorn_units_merged_by_worker_total{worker=\"metrics-worker\",worker_id=\"" +
                          std::to_string(worker) + "\"}"),
         12);
     EXPECT_GE(delta("alphorn_checkpoint_write_seconds_count"), 1);  // the final checkpoint

@@ -116,7 +116,7 @@ expect 'sum(alphorn_units_failed_total)' 0
 expect 'alphorn_samples_merged_total' "$samples"
 expect 'sum(alphorn_worker_samples_total)' "$samples"
 expect 'sum(alphorn_worker_units_rendered_total)' "$units"
-expect 'sum(alphorn_worker_units_merged_total)' "$units"
+expect 'sum(alphorn_units_merged_by_worker_total)' "$units"
 expect 'sum(alphorn_worker_results_total{outcome="merged"})' "$units"
 expect 'alphorn_lease_wait_seconds_count' "$units"
 expect 'alphorn_result_seconds_count' "$units"

@@ -145,7 +145,7 @@ HttpServer::~HttpServer() {
     stop();
 }
 
-void HttpServer::get(const std::string& path, RouteAccess access, Handler handler) {
+std::string HttpServer::addRoute(const std::string& path, RouteAccess access) {
     if (!access.anonymous && access.tokens.empty())
         fail("HTTP route %s: no token may use it and it is not open to anyone", path);
     for (const std::string& token : access.tokens) {
@@ -159,7 +159,15 @@ void HttpServer::get(const std::string& path, RouteAccess access, Handler handle
         if (std::string_view(".^$|()[]{}*+?\\").find(c) != std::string_view::npos) pattern += '\\';
         pattern += c;
     }
-    m_server->Get(pattern, std::move(handler));
+    return pattern;
+}
+
+void HttpServer::get(const std::string& path, RouteAccess access, Handler handler) {
+    m_server->Get(addRoute(path, std::move(access)), std::move(handler));
+}
+
+void HttpServer::post(const std::string& path, RouteAccess access, Handler handler) {
+    m_server->Post(addRoute(path, std::move(access)), std::move(handler));
 }
 
 void HttpServer::start() {

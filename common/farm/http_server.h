@@ -47,9 +47,10 @@ class HttpServer {
     HttpServer(const HttpServer&) = delete;
     HttpServer& operator=(const HttpServer&) = delete;
 
-    // Routes are added before start(). `path` is matched exactly. Throws Error for a route that
-    // is neither anonymous nor given a token.
+    // Routes are added before start(). `path` is matched exactly, and one access applies to all
+    // methods of a path. Throws Error for a route that is neither anonymous nor given a token.
     void get(const std::string& path, RouteAccess access, Handler handler);
+    void post(const std::string& path, RouteAccess access, Handler handler);
 
     // Binds the address (throws Error "cannot listen on ..." when it is taken or invalid) and
     // serves on a thread of its own until stop().
@@ -59,6 +60,9 @@ class HttpServer {
     bool tls() const { return !m_options.tlsCertPath.empty(); }
 
   private:
+    // Records who may use `path` and returns its pattern for httplib (a literal match).
+    std::string addRoute(const std::string& path, RouteAccess access);
+
     HttpServerOptions m_options;
     std::unique_ptr<httplib::Server> m_server;
     std::map<std::string, RouteAccess> m_routes;  // by path

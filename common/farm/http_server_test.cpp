@@ -90,6 +90,24 @@ TEST(HttpServerTest, ATokenOpensOnlyItsRoutes) {
     EXPECT_EQ(reverse->status, 403);
 }
 
+TEST(HttpServerTest, PostRoutesAreGuardedAlike) {
+    HttpServer server({"127.0.0.1:0"});
+    server.post("/action", {{kToken}},
+                [](const httplib::Request& request, httplib::Response& response) {
+                    response.set_content("did " + request.body + "\n", "text/plain");
+                });
+    server.start();
+    httplib::Client client("127.0.0.1", server.port());
+    auto done = client.Post("/action", bearer(kToken), "it", "text/plain");
+    ASSERT_TRUE(done);
+    EXPECT_EQ(done->status, 200);
+    EXPECT_EQ(done->body, "did it\n");
+    auto refused = client.Post("/action", "it", "text/plain");
+    ASSERT_TRUE(refused);
+    EXPECT_EQ(refused->status, 401);
+    EXPECT_EQ(refused->body.find("did"), std::string::npos);
+}
+
 TEST(HttpServerTest, ARouteNeedsATokenOrExplicitlyAnyone) {
     HttpServer server({"127.0.0.1:0"});
     const auto handler = [](const httplib::Request&, httplib::Response&) {};

@@ -2,7 +2,8 @@
 // feature the scene has no use for (or in how a scene that needs no general machinery is
 // described), timed in the same run.
 //
-//   volume_path_mis vs path_mis               on the Cornell box, which has no media
+//   volume_path_mis vs path_mis               on the Cornell box, which has no media (the same
+//                                             film: volume_path_mis runs path_mis's loop there)
 //   volumetric_photonmapper vs photonmapper   on the progressive Cornell box, no media
 //   constant heterogeneous vs homogeneous     the chromatic medium sphere written both ways, and
 //                                             the heterogeneous one tracked (declared majorant:
@@ -19,8 +20,14 @@
 // ratios measured together count). Where the two sides must render the same bytes, the films
 // are compared.
 //
-// usage: bench_feature_cost [rounds] [pass scale]
-//   default: 5 rounds, pass scale 1 (the passes per pair below are multiplied by it)
+// Time is half of the cost: a side that is faster per pass but noisier is not cheaper. After the
+// rounds, each side renders `varianceRenders` single passes with their own seeds, and the mean
+// over pixels of the per-pixel variance of luminance between them is printed beside the time
+// ratio, with the efficiency ratio (1 / (variance x CPU time)) of A over B.
+//
+// usage: bench_feature_cost [rounds] [pass scale] [pair name filter]
+//   default: 5 rounds, pass scale 1 (the passes per pair below are multiplied by it), all pairs
+//   (a filter keeps the pairs whose name contains it)
 #include "bench/timing.h"
 #include "common/core/error.h"
 #include "common/integrator/integrator.h"
@@ -32,6 +39,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -117,8 +125,37 @@ Timing render(const Scene& scene, uint32_t passes, std::string& bytes) {
     return timing;
 }
 
+// Mean over pixels of the variance of luminance between `renders` single-pass renders of
+// independent seeds, and the mean CPU seconds of one.
+std::pair<double, double> passVariance(const Scene& scene, int renders) {
+    const Vector2i size = scene.camera()->outputSize();
+    const size_t pixels = size_t(size.x()) * size_t(size.y());
+    std::vector<double> sum(pixels, 0.0), sum2(pixels, 0.0);
+    double cpu = 0.0;
+    for (int k = 0; k < renders; ++k) {
+        RenderSettings settings;
+        settings.passes = 1;
+        settings.seed = 1000 + uint64_t(k);
+        const double cpuStart = processCpuSeconds();
+        const Image image = resolveImage(renderLocal(scene, settings), size.x(), size.y());
+        cpu += processCpuSeconds() - cpuStart;
+        for (size_t i = 0; i < pixels; ++i) {
+            const double y =
+                Color3f(image.rgb[3 * i], image.rgb[3 * i + 1], image.rgb[3 * i + 2]).luminance();
+            sum[i] += y;
+            sum2[i] += y * y;
+        }
+    }
+    double variance = 0.0;
+    for (size_t i = 0; i < pixels; ++i) {
+        const double mean = sum[i] / renders;
+        variance += std::max(0.0, sum2[i] / renders - mean * mean) * renders / (renders - 1);
+    }
+    return {variance / double(pixels), cpu / renders};
+}
+
 // Returns false when a bound is exceeded or films that must agree differ.
-bool measure(const Pair& pair, int rounds) {
+bool measure(const Pair& pair, int rounds, int varianceRenders) {
     std::printf("%s: %s (A) vs %s (B), %u passes, %d rounds\n", pair.name.c_str(),
                 pair.a.label.c_str(), pair.b.label.c_str(), pair.passes, rounds);
     std::vector<double> cpuRatios, wallRatios;
@@ -151,6 +188,15 @@ bool measure(const Pair& pair, int rounds) {
     }
     std::printf("; films %s%s\n", identical ? "byte-identical" : "differ",
                 pair.sameBytes ? (identical ? "" : " (MUST BE IDENTICAL)") : "");
+    if (varianceRenders > 1 && !identical) {
+        const auto [varianceA, cpuA] = passVariance(*pair.a.scene, varianceRenders);
+        const auto [varianceB, cpuB] = passVariance(*pair.b.scene, varianceRenders);
+        std::printf(
+            "  variance per pass (mean over pixels, %d single-pass renders): A %.4g, B %.4g (B/A "
+            "%.3f); efficiency A/B %.3f\n",
+            varianceRenders, varianceA, varianceB, varianceB / varianceA,
+            (varianceB * cpuB) / (varianceA * cpuA));
+    }
     return ok && (identical || !pair.sameBytes);
 }
 
@@ -169,6 +215,8 @@ std::shared_ptr<Scene> withIntegrator(const std::string& scene, const std::strin
 int main(int argc, char** argv) {
     const int rounds = argc > 1 ? std::stoi(argv[1]) : 5;
     const uint32_t scale = argc > 2 ? static_cast<uint32_t>(std::stoul(argv[2])) : 1;
+    const std::string filter = argc > 3 ? argv[3] : "";
+    const int varianceRenders = 8;
     try {
         std::vector<Pair> pairs;
         {
@@ -178,7 +226,7 @@ int main(int argc, char** argv) {
                              {"volume_path_mis", withIntegrator(cbox, "volume_path_mis", {})},
                              2 * scale,
                              1.05,
-                             false});
+                             true});
         }
         {
             // cbox_ppm's photon mapper (100k photons per pass, radius 0.05, progressive, direct
@@ -234,7 +282,9 @@ int main(int argc, char** argv) {
                              false});
         }
         bool ok = true;
-        for (const Pair& pair : pairs) ok = measure(pair, rounds) && ok;
+        for (const Pair& pair : pairs)
+            if (pair.name.find(filter) != std::string::npos)
+                ok = measure(pair, rounds, varianceRenders) && ok;
         return ok ? 0 : 1;
     } catch (const std::exception& e) {
         std::fprintf(stderr, "error: %s\n", e.what());

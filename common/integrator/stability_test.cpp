@@ -235,7 +235,7 @@ TEST(Stability, EquiangularSamplingBoundsFirefliesNearADeltaLight) {
                    absl::StrFormat("reference %.2f, equiangular %.2f, free-flight only %.2f",
                                    truthRatio, onRatio, offRatio));
     EXPECT_LT(onRatio, 1.5 * truthRatio) << "equiangular sampling should bound the fireflies";
-    EXPECT_GT(offRatio, 4.0 * truthRatio) << "free-flight next-event estimation should have them";
+    EXPECT_GT(offRatio, 3.0 * truthRatio) << "free-flight next-event estimation should have them";
 
     // Both are unbiased: the image means of the two short renders' passes agree (Welch's t
     // test over per-pass image means, from independent seeds).
@@ -438,7 +438,7 @@ TEST(Stability, DenseMediaTakeBoundedWork) {
                          diffuse(0.5f)) +
                     mesh(
                         "quad.obj",
-                        R"(<scale value="0.5, 1, 0.5"/><rotate axis="1, 0, 0" angle="180"/><translate value="0, 2.5, 0"/>)",
+                        R"(<scale value="1.5, 1, 1.5"/><rotate axis="1, 0, 0" angle="180"/><translate value="0, 2.5, 0"/>)",
                         R"(<emitter type="area"><color name="radiance" value="10"/></emitter>)") +
                     mesh("sphere.obj", "", R"(<bsdf type="null"/>)" + medium) + "</scene>");
             g_counts.reset();
@@ -450,10 +450,11 @@ TEST(Stability, DenseMediaTakeBoundedWork) {
                 const uint64_t streams = g_counts.streams[slot];
                 if (streams == 0) continue;
                 const double mean = double(g_counts.draws[slot]) / double(streams);
-                RecordProperty(absl::StrFormat("draws_%s_%d", slot ? "photon" : "camera",
-                                               int(&medium - media)),
-                               absl::StrFormat("mean %.1f, max %llu", mean,
-                                               (unsigned long long)g_counts.maxDraws[slot]));
+                RecordProperty(
+                    absl::StrFormat("draws_medium%d_%s_%s", int(&medium - media),
+                                    scene->integrator()->toString(), slot ? "photon" : "camera"),
+                    absl::StrFormat("mean %.1f, max %llu", mean,
+                                    (unsigned long long)g_counts.maxDraws[slot]));
                 EXPECT_LT(mean, 1000.0) << integrator << medium << (slot ? " photon" : " camera");
                 EXPECT_LT(g_counts.maxDraws[slot], 100000u) << integrator << medium;
             }

@@ -487,13 +487,14 @@ TEST(Stability, DenseMediaTakeBoundedWork) {
 
 // ---- Zero-density media ----
 // A medium that cannot interact (homogeneous with zero coefficients, heterogeneous with density
-// 0 or a zero texture) draws no random numbers, so it renders exactly like no medium at all:
+// 0 or a zero texture, constant or not) draws no random numbers, so it renders exactly like no medium at all:
 // the same film bytes, for every volumetric integrator (the camera paths and the photons).
 TEST(Stability, ZeroDensityMediaEqualVacuumBitForBit) {
     const std::string zeroMedia[] = {
         R"(<medium type="homogeneous" name="inside"><color name="sigmaS" value="0"/></medium>)",
         R"(<medium type="heterogeneous" name="inside"><float name="density" value="0"/><color name="sigmaS" value="3"/></medium>)",
-        R"(<medium type="heterogeneous" name="inside"><texture type="checkerboard3d" name="sigmaS"><color name="color0" value="0"/><color name="color1" value="0"/></texture></medium>)"};
+        R"(<medium type="heterogeneous" name="inside"><texture type="checkerboard3d" name="sigmaS"><color name="color0" value="0"/><color name="color1" value="0"/></texture></medium>)",
+        R"(<medium type="heterogeneous" name="inside"><float name="density" value="0"/><texture type="checkerboard3d" name="sigmaS"><color name="color0" value="1"/><color name="color1" value="2"/></texture></medium>)"};
     for (
         const char* integrator :
         {R"(<integrator type="volume_path_mats"/>)", R"(<integrator type="volume_path_mis"/>)",

@@ -5,7 +5,8 @@
 //
 //  - path tracing misses specular-diffuse-specular light (deficit against the photon mapper);
 //  - BSDF-only integrators render delta lights black;
-//  - fireflies near a delta light in fog, and how equiangular sampling bounds them;
+//  - fireflies near a delta light in fog, and how equiangular sampling bounds them; those of
+//    BSDF and phase sampling near a small area light;
 //  - photon mapping's bias at large radii, and how the progressive schedule shrinks it;
 //  - dense media (sigma_t * d = 10^4) take bounded work (random numbers counted, not time);
 //  - zero-density media render exactly like vacuum, for every volumetric integrator;
@@ -254,6 +255,46 @@ TEST(Stability, EquiangularSamplingBoundsFirefliesNearADeltaLight) {
     EXPECT_GT(stats::studentTTwoSidedPValue(t, dof), 0.01)
         << "means " << a.mean << " and " << b.mean << ", t = " << t;
     EXPECT_LT(std::sqrt(se2a), std::sqrt(se2b)) << "equiangular should also be less noisy";
+}
+
+// volume_path_mats cannot see the point light at all; the nearest it can see is a small light of
+// the same power: a 0.1 x 0.1 square (radiance 20 / (pi 0.01)) facing away from the camera, which
+// sees only the fog it lights. Phase and BSDF sampling hit it rarely and then with a large
+// radiance: its fireflies, measured by the same statistic. volume_path_mis finds it by next-event
+// estimation at free-flight points (equiangular sampling serves point-like lights only) and
+// renders the reference.
+TEST(Stability, BsdfSamplingOfASmallLightInFogMakesFireflies) {
+    const std::string fog =
+        R"(<medium type="homogeneous"><color name="sigmaS" value="0.4"/><color name="sigmaA" value="0.02"/></medium>)";
+    auto scene = [&](const char* integrator) {
+        return load(
+            "small_light.xml",
+            absl::StrFormat(R"(<scene><integrator type="%s"/>)", integrator) +
+                camera("0, 1, 3", "0, 0.8, 0", 50.0f, 20, 20, fog) +
+                mesh("quad.obj", R"(<scale value="3, 1, 3"/>)", diffuse(0.5f)) +
+                mesh(
+                    "quad.obj",
+                    R"(<scale value="0.05, 1, 0.05"/><rotate axis="1, 0, 0" angle="-90"/><translate value="0.13, 0.95, 0.1"/>)",
+                    absl::StrFormat(
+                        R"(<emitter type="area"><color name="radiance" value="%g"/></emitter>)",
+                        20.0 / (M_PI * 0.01))) +
+                "</scene>");
+    };
+    auto mats = scene("volume_path_mats");
+    auto mis = scene("volume_path_mis");
+    auto maxOverMean = [](const std::vector<double>& v) {
+        const double mean = std::accumulate(v.begin(), v.end(), 0.0) / double(v.size());
+        return *std::max_element(v.begin(), v.end()) / mean;
+    };
+    const double truthRatio = maxOverMean(luminances(renderImage(*mis, 256, 2)));
+    const double matsRatio = maxOverMean(luminances(renderImage(*mats, 4, 1)));
+    const double misRatio = maxOverMean(luminances(renderImage(*mis, 4, 1)));
+    RecordProperty("maxOverMean",
+                   absl::StrFormat("reference %.2f, volume_path_mats %.2f, volume_path_mis %.2f",
+                                   truthRatio, matsRatio, misRatio));
+    EXPECT_GT(matsRatio, 3.0 * truthRatio)
+        << "BSDF sampling of a small light should make fireflies";
+    EXPECT_GT(matsRatio, misRatio);
 }
 
 // ---- Photon mapping bias at large radii ----

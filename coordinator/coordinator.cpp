@@ -692,7 +692,7 @@ uint64_t Coordinator::maxResultBytes(uint64_t jobId) const {
     // The largest unit block: a full tile plus the filter border on each side.
     const uint64_t side =
         uint64_t(job.description.settings().tile_size()) + 2 * uint64_t(job.filterBorder);
-    return ZSTD_compressBound(side * side * sizeof(PixelSum)) + 4096;
+    return ZSTD_compressBound(side * side * FilmBlock(0, 0, 0, 0).bytesPerPixel()) + 4096;
 }
 
 v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,

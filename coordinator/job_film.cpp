@@ -10,7 +10,7 @@ JobFilm::JobFilm(const farm::JobGrid& grid, std::string checkpointPath)
 
 uint64_t JobFilm::memoryBytes(int width, int height, uint64_t unitCount) {
     // Per unit a merged flag (a bit, counted as a byte); per chunk a counter (fewer than units).
-    return uint64_t(width) * uint64_t(height) * sizeof(PixelSum) + unitCount;
+    return uint64_t(width) * uint64_t(height) * FilmBlock(0, 0, 0, 0).bytesPerPixel() + unitCount;
 }
 
 void JobFilm::startEmpty() {

@@ -24,9 +24,9 @@ start_worker b
     fail "submit failed: $(cat "$WORK/submit.log")"
 cmp "$WORK/local.exr" "$WORK/farm.exr" || fail "the farm EXR differs from alphorn render"
 job=1
-[[ $(job_field $job passesDone) == "$stop" ]] || fail "the farm stopped at $(job_field $job passesDone) passes, not $stop"
-[[ $(job_field $job targetReached) == true ]] || fail "status does not say the target was reached"
-estimate=$(job_field $job errorEstimate)
+[[ $(job_field $job passes_done) == "$stop" ]] || fail "the farm stopped at $(job_field $job passes_done) passes, not $stop"
+[[ $(job_field $job target_reached) == true ]] || fail "status does not say the target was reached"
+estimate=$(job_field $job error_estimate)
 awk -v e="$estimate" 'BEGIN { exit !(e > 0 && e <= 0.1) }' || fail "error estimate '$estimate' is not within the target"
 "$ALPHORN" status $job | grep -q "err .* -> 10%" || fail "status does not show the estimate: $("$ALPHORN" status $job)"
 pass "two workers stop at $stop passes with the same bytes; status shows estimate $estimate"

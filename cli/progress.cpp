@@ -51,10 +51,10 @@ std::string finalEstimateText(const RenderStatus& status, std::optional<double> 
         if (status.targetReached)
             text += absl::StrFormat("; target %.4g reached", *targetError);
         else if (status.passesDone >= cap)
-            text += absl::StrFormat("; target %.4g not reached within --max-passes %u "
-                                    "(about %.0f passes would reach it)",
-                                    *targetError, cap,
-                                    projectedPasses(*status.estimate, *targetError));
+            text += absl::StrFormat(
+                "; target %.4g not reached within --max-passes %u "
+                "(about %.0f passes would reach it)",
+                *targetError, cap, projectedPasses(*status.estimate, *targetError));
     }
     return text;
 }

@@ -153,21 +153,21 @@ static int runRender(const RenderOptions& options) {
     FilmBlock film = renderLocal(
         *scene, settings,
         [&](const RenderStatus& status) {
-        double seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        passesDone = status.passesDone;
-        if (options.timeLimit > 0 && seconds >= options.timeLimit) g_stop.store(true);
-        std::string radius;
-        if (radiusSchedule)
-            radius = absl::StrFormat(
-                "  radius %.4g",
-                reportedProgressiveRadius(radiusSchedule->initialRadius, radiusSchedule->alpha,
-                                          status.passesDone));
-        progress.update(status.passesDone,
-                        errorText(status, settings.targetError) + "  " +
-                            speedText(seconds > 0 ? status.samplesDone / seconds : 0.0,
-                                      seconds > 0 ? status.rays / seconds : 0.0) +
-                            radius);
+            double seconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            passesDone = status.passesDone;
+            if (options.timeLimit > 0 && seconds >= options.timeLimit) g_stop.store(true);
+            std::string radius;
+            if (radiusSchedule)
+                radius = absl::StrFormat(
+                    "  radius %.4g",
+                    reportedProgressiveRadius(radiusSchedule->initialRadius, radiusSchedule->alpha,
+                                              status.passesDone));
+            progress.update(status.passesDone,
+                            errorText(status, settings.targetError) + "  " +
+                                speedText(seconds > 0 ? status.samplesDone / seconds : 0.0,
+                                          seconds > 0 ? status.rays / seconds : 0.0) +
+                                radius);
         },
         nullptr, &finalStatus);
     double seconds =
@@ -175,8 +175,8 @@ static int runRender(const RenderOptions& options) {
     const bool interrupted = g_interrupted.load();
     const bool targetReached = finalStatus.targetReached;
     const bool stoppedEarly = passesDone < settings.passes && !targetReached;
-    progress.finish(interrupted    ? "interrupted"
-                    : stoppedEarly ? "time limit reached"
+    progress.finish(interrupted     ? "interrupted"
+                    : stoppedEarly  ? "time limit reached"
                     : targetReached ? "target error reached"
                                     : "done");
     if (passesDone == 0) {

@@ -82,7 +82,8 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
         const double target = settings.target_error();
         std::string problem;
         if (!(target > 0.0 && target <= 1.0))
-            problem = absl::StrFormat("target error %g must be in (0, 1] (a relative RMSE)", target);
+            problem =
+                absl::StrFormat("target error %g must be in (0, 1] (a relative RMSE)", target);
         else if (settings.passes() == 0)
             problem = "a target error needs a cap: give the most passes (--max-passes)";
         if (!problem.empty()) {

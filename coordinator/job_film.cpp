@@ -16,11 +16,13 @@ JobFilm::JobFilm(const farm::JobGrid& grid, std::string checkpointPath,
       m_decisionPasses(nextDecisionPasses(0, grid.passes())) {
     // Admission gives a target-error job chunks that end at every decision point.
     if (m_targetError && m_grid.passes() > 0) {
-        for (uint32_t d = m_decisionPasses; d < m_grid.passes(); d = nextDecisionPasses(d, m_grid.passes()))
+        for (uint32_t d = m_decisionPasses; d < m_grid.passes();
+             d = nextDecisionPasses(d, m_grid.passes()))
             if (d % m_grid.passesPerUnit() != 0)
-                fail("a job with a target error needs pass chunks ending at %u passes, and has %u "
-                     "passes per unit",
-                     d, m_grid.passesPerUnit());
+                fail(
+                    "a job with a target error needs pass chunks ending at %u passes, and has %u "
+                    "passes per unit",
+                    d, m_grid.passesPerUnit());
     }
 }
 
@@ -76,8 +78,7 @@ void JobFilm::restore(Checkpoint checkpoint, bool keepFilm) {
     // the first point not passed yet is taken again from the same film (the same answer).
     while (m_decisionPasses < m_grid.passes() && lastPassMerged > m_decisionPasses)
         m_decisionPasses = nextDecisionPasses(m_decisionPasses, m_grid.passes());
-    if (m_passesComplete >= m_decisionPasses && m_passesComplete > 0)
-        decide(checkpoint.film);
+    if (m_passesComplete >= m_decisionPasses && m_passesComplete > 0) decide(checkpoint.film);
     if (keepFilm) m_film = std::move(checkpoint.film);
 }
 

@@ -26,7 +26,8 @@ namespace {
 // Calls f(x, y) for every pixel the two blocks share.
 template <typename F>
 void forOverlap(const FilmBlock& a, const FilmBlock& b, F&& f) {
-    const int xBegin = std::max(a.x0(), b.x0()), xEnd = std::min(a.x0() + a.width(), b.x0() + b.width());
+    const int xBegin = std::max(a.x0(), b.x0()),
+              xEnd = std::min(a.x0() + a.width(), b.x0() + b.width());
     const int yBegin = std::max(a.y0(), b.y0()),
               yEnd = std::min(a.y0() + a.height(), b.y0() + b.height());
     for (int y = yBegin; y < yEnd; ++y)
@@ -74,9 +75,10 @@ void FilmBlock::deserialize(const std::string& bytes) {
     const size_t half = m_pixels.size() * sizeof(PixelSum);
     if (bytes.size() != m_pixels.size() * bytesPerPixel()) {
         if (keepsHalves() && bytes.size() == half && half != 0)
-            fail("film data has no pass halves (written by an older Alphorn): a %dx%d block "
-                 "needs %zu bytes with its odd passes' sums, got %zu",
-                 m_width, m_height, m_pixels.size() * bytesPerPixel(), bytes.size());
+            fail(
+                "film data has no pass halves (written by an older Alphorn): a %dx%d block "
+                "needs %zu bytes with its odd passes' sums, got %zu",
+                m_width, m_height, m_pixels.size() * bytesPerPixel(), bytes.size());
         fail("film data has %zu bytes, expected %zu for a %dx%d block", bytes.size(),
              m_pixels.size() * bytesPerPixel(), m_width, m_height);
     }

@@ -39,8 +39,8 @@ FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
     for (uint32_t begin = 0; begin < settings.passes && !status.targetReached;) {
         if (settings.stop && settings.stop->load()) break;
         // Chunks end at every decision point (units never change the sums, so this is free).
-        const uint32_t end = std::min({settings.passes, begin + chunk,
-                                       nextDecisionPasses(begin, settings.passes)});
+        const uint32_t end =
+            std::min({settings.passes, begin + chunk, nextDecisionPasses(begin, settings.passes)});
         // Pass data (photon maps) is built once and shared by every tile of these passes.
         const auto passData = preparePasses(scene, settings.seed, begin, end);
         tbb::parallel_for(size_t(0), tiles.size(), [&](size_t i) {

@@ -4,6 +4,7 @@
 // the scene, seed and target (threads and tiles change no byte).
 #include "common/render/error_estimate.h"
 
+#include "common/integrator/integrator.h"
 #include "common/render/local_render.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
@@ -137,6 +138,59 @@ TEST(ErrorEstimate, MatchesTheTrueErrorOfAnUnbiasedRender) {
                                << ", truth " << truth;
         std::printf("seed %llu: estimated relative RMSE %.4f, true %.4f, ratio %.3f\n",
                     (unsigned long long)seed, status.estimate->relativeRmse, truth, ratio);
+    }
+}
+
+// Progressive photon mapping is biased: the halves (odd and even passes, with the same shrinking
+// radii) differ by noise only, so the estimate misses the bias of the radius. Measured here
+// against a reference of 128 passes of the same method with another seed (a point light's
+// caustic through glass, which no path tracer here renders); its radius has shrunk further, but
+// it shares the bias that remains, so this bounds the estimate against the error a user can
+// measure, not against the exact image. The factor is documented in docs/error-estimate.md.
+TEST(ErrorEstimate, ProgressivePhotonMappingEstimateCoversTheNoiseOnly) {
+    const float kRadius = 0.3f;
+    const int width = 20, height = 15;
+    SceneOverrides overrides;
+    overrides.imageSize = Vector2i(width, height);
+    const std::shared_ptr<Scene> scene =
+        loadScene(ALPHORN_SOURCE_DIR "/tests/cli/scenes/ok_photonmapper.xml", {}, overrides);
+    PropertyList props;
+    props.setInteger("photonCount", 2000);
+    props.setFloat("surfacePhotonRadius", kRadius);
+    props.setBoolean("progressive", true);
+    auto integrator = std::static_pointer_cast<Integrator>(
+        ObjectFactory::create(ObjectKind::Integrator, "photonmapper", props));
+    integrator->activate();
+    scene->setIntegrator(integrator);
+    const uint32_t referencePasses = 128;
+    RenderSettings settings;
+    settings.seed = 1000;
+    settings.passes = referencePasses;
+    RenderStatus referenceStatus;
+    const std::vector<double> reference =
+        luminances(renderLocal(*scene, settings, {}, nullptr, &referenceStatus), width, height);
+    ASSERT_TRUE(referenceStatus.estimate);
+    double referenceMean = 0.0;
+    for (double y : reference) referenceMean += y / reference.size();
+    std::printf("photonmapper reference, %u passes: estimated relative RMSE %.4f\n",
+                referencePasses, referenceStatus.estimate->relativeRmse);
+    for (uint32_t passes : {4u, 16u}) {
+        settings.seed = 1;
+        settings.passes = passes;
+        RenderStatus status;
+        const std::vector<double> image =
+            luminances(renderLocal(*scene, settings, {}, nullptr, &status), width, height);
+        ASSERT_TRUE(status.estimate);
+        double squaredError = 0.0;
+        for (size_t i = 0; i < image.size(); ++i)
+            squaredError += (image[i] - reference[i]) * (image[i] - reference[i]);
+        const double truth = std::sqrt(squaredError / image.size()) / referenceMean;
+        const double ratio = status.estimate->relativeRmse / truth;
+        std::printf(
+            "photonmapper, %u passes: estimated relative RMSE %.4f, true %.4f, ratio %.3f\n",
+            passes, status.estimate->relativeRmse, truth, ratio);
+        EXPECT_GT(ratio, 0.75) << passes << " passes";
+        EXPECT_LT(ratio, 1.25) << passes << " passes";
     }
 }
 

@@ -461,12 +461,13 @@ v1::JobStatus Coordinator::statusLocked(const Job& job) const {
     }
     status.set_samples_per_second(rate);
     const uint64_t totalSamples =
-        uint64_t(job.grid.width()) * job.grid.height() * job.grid.passes();
+        uint64_t(job.grid.width()) * job.grid.height() * film.expectedPasses();
     if (job.state != v1::JOB_STATE_RUNNING)
         status.set_eta_seconds(0.0);
     else
-        status.set_eta_seconds(rate > 0 ? double(totalSamples - film.samplesMerged()) / rate
-                                        : -1.0);
+        status.set_eta_seconds(
+            rate > 0 ? double(totalSamples - std::min(totalSamples, film.samplesMerged())) / rate
+                     : -1.0);
     return status;
 }
 

@@ -32,6 +32,16 @@ uint32_t JobFilm::leaseLimit() const {
     return m_decisionPasses / m_grid.passesPerUnit() * m_grid.tileCount();
 }
 
+uint32_t JobFilm::expectedPasses() const {
+    if (!m_targetError || !m_estimate) return m_grid.passes();
+    if (m_targetReached) return m_estimate->passes;
+    const double projected = projectedPasses(*m_estimate, *m_targetError);
+    uint32_t passes = m_decisionPasses;
+    while (passes < m_grid.passes() && double(passes) < projected)
+        passes = nextDecisionPasses(passes, m_grid.passes());
+    return passes;
+}
+
 void JobFilm::decide(const FilmBlock& film) {
     const uint32_t passes = m_decisionPasses;
     m_estimate = estimateError(film, Tile{0, 0, m_grid.width(), m_grid.height()}, passes);

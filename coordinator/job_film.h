@@ -60,6 +60,9 @@ class JobFilm {
     // The estimate at the last decision point (see JobStatus.error_estimate).
     const std::optional<ErrorEstimate>& estimate() const { return m_estimate; }
     const std::optional<double>& targetError() const { return m_targetError; }
+    // The passes the job is expected to end with: all of them, or for a job with a target error
+    // the decision point at or after the projected passes (the cap without an estimate yet).
+    uint32_t expectedPasses() const;
     uint32_t passesComplete() const { return m_passesComplete; }
     uint64_t samplesMerged() const { return m_samplesMerged; }
     uint64_t invalidSamples() const { return m_film.invalidSamples; }

@@ -124,7 +124,13 @@ TEST(JobFilm, ATargetErrorStopsAtTheFirstDecisionPointThatReachesIt) {
         EXPECT_EQ(film.estimate()->passes, decision);
         EXPECT_NEAR(film.estimate()->relativeRmse, 2.0 / decision, 1e-9);
         EXPECT_EQ(film.complete(), decision == 16u) << decision;
+        // 2/D falls as 1/D, faster than the Monte Carlo rate the projection assumes: from 4
+        // passes it projects (0.5 / 0.2)^2 * 4 = 25, the decision point 32.
+        if (decision == 4u) {
+            EXPECT_EQ(film.expectedPasses(), 32u);
+        }
     }
+    EXPECT_EQ(film.expectedPasses(), 16u) << "stopped";
     EXPECT_TRUE(film.targetReached());
     EXPECT_EQ(film.passesComplete(), 16u);
     EXPECT_EQ(film.leaseLimit(), 0u);

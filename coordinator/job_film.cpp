@@ -1,6 +1,7 @@
 #include "coordinator/job_film.h"
 
 #include "common/core/error.h"
+#include "common/farm/metrics.h"
 
 #include <algorithm>
 
@@ -92,15 +93,17 @@ void JobFilm::restore(Checkpoint checkpoint, bool keepFilm) {
     if (keepFilm) m_film = std::move(checkpoint.film);
 }
 
-void JobFilm::countMerged(uint32_t unitIndex) {
+uint64_t JobFilm::countMerged(uint32_t unitIndex) {
     m_merged[unitIndex] = true;
     ++m_mergedCount;
     const RenderUnit unit = m_grid.unit(unitIndex);
-    m_samplesMerged +=
+    const uint64_t samples =
         uint64_t(unit.tile.width()) * unit.tile.height() * (unit.passEnd - unit.passBegin);
+    m_samplesMerged += samples;
     const uint32_t chunk = m_grid.chunkOf(unitIndex);
     if (++m_mergedPerChunk[chunk] == m_grid.tileCount())
         m_passesComplete += m_grid.chunkPasses(chunk);
+    return samples;
 }
 
 void JobFilm::merge(uint32_t unitIndex, const FilmBlock& block) {
@@ -108,7 +111,7 @@ void JobFilm::merge(uint32_t unitIndex, const FilmBlock& block) {
     if (unitIndex >= leaseLimit())
         fail("unit %u is beyond the decision at %u passes", unitIndex, m_decisionPasses);
     m_film.add(block);
-    countMerged(unitIndex);
+    farm::CoordinatorMetrics::unitMerged(countMerged(unitIndex));
     // Without a target, later passes may be merged already: the estimate is then approximate
     // (it is exact once the job is complete, at its last decision point).
     while (!m_targetReached && m_passesComplete >= m_decisionPasses &&

@@ -14,6 +14,7 @@
 
 #include "alphorn/v1/farm.pb.h"
 #include "common/farm/job_grid.h"
+#include "common/farm/metrics.h"
 #include "common/render/error_estimate.h"
 #include "common/render/film.h"
 #include "coordinator/checkpoint.h"
@@ -85,14 +86,18 @@ class JobFilm {
     void writeFile(const Copy& copy) const;
     Checkpoint readFile() const;
     void checkpointWritten(uint32_t count);
-    void checkpointFailed(const std::string& error) { m_checkpointError = error; }
+    void checkpointFailed(const std::string& error) {
+        m_checkpointError = error;
+        farm::CoordinatorMetrics::checkpointFailed();
+    }
     void clearCheckpointError() { m_checkpointError.clear(); }
     // The last failed write (e.g. a full disk); cleared by the next success.
     const std::string& checkpointError() const { return m_checkpointError; }
     uint32_t checkpointsWritten() const { return m_checkpointsWritten; }
 
   private:
-    void countMerged(uint32_t unitIndex);
+    // Marks the unit merged and counts it; returns its samples (tile pixels x passes).
+    uint64_t countMerged(uint32_t unitIndex);
     // At a decision point: the estimate, and whether the target stops the job.
     void decide(const FilmBlock& film);
 

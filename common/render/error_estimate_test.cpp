@@ -110,7 +110,7 @@ std::vector<double> luminances(const FilmBlock& film, int width, int height) {
 // Unbiased path tracing: the estimate must be within 25% of the truth, for each seed.
 TEST(ErrorEstimate, MatchesTheTrueErrorOfAnUnbiasedRender) {
     const int width = 40, height = 30;
-    const uint32_t passes = 16, referencePasses = 512;
+    const uint32_t passes = 16, referencePasses = 256;
     const std::shared_ptr<Scene> scene = smallPathTracedScene(width, height);
     RenderSettings settings;
     settings.seed = 1000;
@@ -143,7 +143,7 @@ TEST(ErrorEstimate, MatchesTheTrueErrorOfAnUnbiasedRender) {
 
 // Progressive photon mapping is biased: the halves (odd and even passes, with the same shrinking
 // radii) differ by noise only, so the estimate misses the bias of the radius. Measured here
-// against a reference of 128 passes of the same method with another seed (a point light's
+// against a reference of 64 passes of the same method with another seed (a point light's
 // caustic through glass, which no path tracer here renders); its radius has shrunk further, but
 // it shares the bias that remains, so this bounds the estimate against the error a user can
 // measure, not against the exact image. The factor is documented in docs/error-estimate.md.
@@ -162,7 +162,7 @@ TEST(ErrorEstimate, ProgressivePhotonMappingEstimateCoversTheNoiseOnly) {
         ObjectFactory::create(ObjectKind::Integrator, "photonmapper", props));
     integrator->activate();
     scene->setIntegrator(integrator);
-    const uint32_t referencePasses = 128;
+    const uint32_t referencePasses = 64;
     RenderSettings settings;
     settings.seed = 1000;
     settings.passes = referencePasses;

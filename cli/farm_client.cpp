@@ -30,6 +30,19 @@ static std::string fromEnvironment(const char* name) {
     return value ? value : "";
 }
 
+std::string statusErrorText(const v1::JobStatus& status) {
+    std::optional<ErrorEstimate> estimate;
+    if (status.has_error_estimate()) {
+        estimate = ErrorEstimate();
+        estimate->relativeRmse = status.error_estimate();
+        estimate->passes = status.error_estimate_passes();
+    }
+    const v1::JobSettings& settings = status.settings();
+    return errorText(estimate, settings.has_target_error()
+                                   ? std::optional<double>(settings.target_error())
+                                   : std::nullopt);
+}
+
 void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options) {
     sub->add_option("--coordinator", options.coordinator,
                     "Coordinator address host:port (or $ALPHORN_COORDINATOR, or the config file)");
@@ -291,8 +304,8 @@ v1::JobStatus FarmClient::watch(uint64_t jobId, bool quiet) {
                                                           status.units_total(), "units");
             progress->update(
                 status.units_done(),
-                absl::StrFormat("%u/%u passes  %s  %u workers%s", status.passes_done(),
-                                status.settings().passes(),
+                absl::StrFormat("%u/%u passes  %s  %s  %u workers%s", status.passes_done(),
+                                status.settings().passes(), statusErrorText(status),
                                 speedText(status.samples_per_second(), std::nullopt),
                                 status.active_workers(),
                                 status.has_photon_radius()

@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include <memory>
+#include <optional>
 #include <string>
 
 namespace alphorn::cli {
@@ -95,7 +96,13 @@ struct SubmitOptions {
     std::string name;
     std::string integrator;
     bool watch = false;
+    // --target-error and its cap --max-passes (which then replaces `passes`).
+    std::optional<double> targetError;
+    std::optional<uint32_t> maxPasses;
 };
+
+// The job's error estimate for progress and status lines: "err 3.1% -> 2% (~64 passes)".
+std::string statusErrorText(const v1::JobStatus& status);
 
 // `alphorn submit` after option parsing; also what `alphorn cluster --render` runs.
 int runSubmit(FarmClient& client, const SubmitOptions& options, bool json);

@@ -37,8 +37,11 @@ void printStatusTable(const std::vector<v1::JobStatus>& jobs) {
     for (const v1::JobStatus& s : jobs) {
         std::string notes =
             s.has_photon_radius() ? absl::StrFormat("photon radius %.4g", s.photon_radius()) : "";
+        const std::string estimate =
+            s.has_error_estimate() || s.settings().has_target_error() ? statusErrorText(s) : "";
         for (const std::string& note :
-             {duplication(s), s.error().empty() ? "" : "error: " + s.error()})
+             {estimate, s.target_reached() ? std::string("target reached") : std::string(),
+              duplication(s), s.error().empty() ? "" : "error: " + s.error()})
             if (!note.empty()) notes += (notes.empty() ? "" : "  ") + note;
         std::cout << absl::StrFormat(
             format, std::to_string(s.job_id()), farm::jobStateName(s.state()), s.settings().name(),
@@ -64,6 +67,10 @@ int runSubmit(FarmClient& client, const SubmitOptions& options, bool json) {
     settings.set_priority(options.priority);
     settings.set_integrator_override(options.integrator);
     settings.set_name(options.name);
+    if (options.targetError) {
+        settings.set_target_error(*options.targetError);
+        settings.set_passes(*options.maxPasses);  // the option parser insists on the cap
+    }
     v1::JobStatus status = client.submit(options.scene, settings, json);
     if (!json)
         std::cerr << absl::StrFormat("job %u submitted: %ux%u, %u passes, %u units\n",
@@ -105,9 +112,10 @@ Command addSubmitCommand(CLI::App& app) {
     auto* passes = sub->add_option("--passes", options->passes,
                                    "Number of passes (default: the scene's sampleCount)")
                        ->check(kPositiveCount);
-    sub->add_option("--spp", *spp, "Samples per pixel (= passes)")
-        ->excludes(passes)
-        ->check(kPositiveCount);
+    auto* sppOption = sub->add_option("--spp", *spp, "Samples per pixel (= passes)")
+                          ->excludes(passes)
+                          ->check(kPositiveCount);
+    addTargetErrorOptions(*sub, options->targetError, options->maxPasses, {passes, sppOption});
     sub->add_option("--seed", options->seed, "Random seed; the image is a pure function of it");
     sub->add_option("--tile", options->tile, "Tile size in pixels (does not change the image)");
     sub->add_option("--passes-per-unit", options->passesPerUnit,

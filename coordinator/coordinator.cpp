@@ -166,7 +166,8 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
     std::vector<uint32_t> attempts(unitCount, 0);
     for (const UnitAttemptsRow& unit : m_store.unitAttempts(job.id))
         if (unit.unitIndex < unitCount) attempts[unit.unitIndex] = unit.attempts;
-    job.film = std::make_unique<JobFilm>(job.grid, jobDirectory(job.id) + "/film.ckpt");
+    job.film = std::make_unique<JobFilm>(job.grid, jobDirectory(job.id) + "/film.ckpt",
+                                         targetError(settings));
     bool running = job.state == v1::JOB_STATE_RUNNING;
     if (running || job.state == v1::JOB_STATE_DONE) {
         const std::string checkpointPath = jobDirectory(job.id) + "/film.ckpt";
@@ -198,6 +199,7 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
         const Checkpoint none{FilmBlock(0, 0, row.width, row.height), job.film->merged()};
         job.film->restore(none, true);
     }
+    m_scheduler->setLeaseLimit(job.id, job.film->leaseLimit());
     job.memoryBytes = jobMemoryBytes(row.width, row.height, unitCount);
     job.restored = job.film->mergedCount();
     logInfo("job.resumed", {field("job", job.id), field("units_restored", job.restored),
@@ -392,13 +394,15 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     job->memoryBytes = memory;
     job->grid = grid;
     job->filterBorder = admitted.filterBorder;
-    job->film = std::make_unique<JobFilm>(grid, jobDirectory(job->id) + "/film.ckpt");
+    job->film = std::make_unique<JobFilm>(grid, jobDirectory(job->id) + "/film.ckpt",
+                                          targetError(job->description.settings()));
     job->film->startEmpty();
 
     std::lock_guard lock(m_mutex);
     const uint64_t id = job->id;
     const v1::JobSettings& settings = job->description.settings();
     m_scheduler->addJob(id, settings.priority(), grid, {}, {}, true);
+    m_scheduler->setLeaseLimit(id, job->film->leaseLimit());
     logInfo("job.submitted", {field("job", id), field("name", settings.name()),
                               field("size", absl::StrFormat("%dx%d", grid.width(), grid.height())),
                               field("passes", settings.passes()), field("units", grid.unitCount()),
@@ -440,6 +444,7 @@ v1::JobStatus Coordinator::statusLocked(const Job& job) const {
         status.set_photon_radius(
             reportedProgressiveRadius(schedule.initial_radius(), schedule.alpha(), passesDone));
     }
+    describeEstimate(film, status);
     status.set_units_restored(job.restored);
     status.set_units_merged_this_run(job.mergedThisRun);
     status.set_results_discarded(job.discarded);
@@ -456,12 +461,13 @@ v1::JobStatus Coordinator::statusLocked(const Job& job) const {
     }
     status.set_samples_per_second(rate);
     const uint64_t totalSamples =
-        uint64_t(job.grid.width()) * job.grid.height() * job.grid.passes();
+        uint64_t(job.grid.width()) * job.grid.height() * film.expectedPasses();
     if (job.state != v1::JOB_STATE_RUNNING)
         status.set_eta_seconds(0.0);
     else
-        status.set_eta_seconds(rate > 0 ? double(totalSamples - film.samplesMerged()) / rate
-                                        : -1.0);
+        status.set_eta_seconds(
+            rate > 0 ? double(totalSamples - std::min(totalSamples, film.samplesMerged())) / rate
+                     : -1.0);
     return status;
 }
 
@@ -692,7 +698,7 @@ uint64_t Coordinator::maxResultBytes(uint64_t jobId) const {
     // The largest unit block: a full tile plus the filter border on each side.
     const uint64_t side =
         uint64_t(job.description.settings().tile_size()) + 2 * uint64_t(job.filterBorder);
-    return ZSTD_compressBound(side * side * sizeof(PixelSum)) + 4096;
+    return ZSTD_compressBound(side * side * FilmBlock(0, 0, 0, 0).bytesPerPixel()) + 4096;
 }
 
 v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
@@ -771,7 +777,13 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
             ++job.discarded;
             return v1::RESULT_DISCARDED;
         }
+        const uint32_t leaseLimit = job.film->leaseLimit();
         job.film->merge(unitIndex, block);
+        if (job.film->leaseLimit() != leaseLimit) {
+            // A decision point passed: the units up to the next one may be leased now.
+            m_scheduler->setLeaseLimit(jobId, job.film->leaseLimit());
+            m_workAvailable.notify_all();
+        }
         ++job.mergedThisRun;
         if (!job.firstMergeAt) job.firstMergeAt = m_clock->monotonicSeconds();
         if (header.built_pass_data()) job.passDataBuilds += unit.passEnd - unit.passBegin;

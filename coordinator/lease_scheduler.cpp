@@ -65,6 +65,10 @@ bool LeaseScheduler::running(uint64_t jobId) const {
     return job(jobId).running;
 }
 
+void LeaseScheduler::setLeaseLimit(uint64_t jobId, uint32_t unitLimit) {
+    job(jobId).leaseLimit = unitLimit;
+}
+
 LeaseScheduler::JobLeases LeaseScheduler::jobLeases(uint64_t jobId) const {
     return job(jobId).counts;
 }
@@ -142,7 +146,9 @@ std::optional<LeaseScheduler::Lease> LeaseScheduler::lease(uint64_t workerId) {
     uint64_t bestId = 0;
     Job* best = nullptr;
     for (auto& [id, candidate] : m_jobs) {
-        if (!candidate.running || candidate.pending.empty()) continue;
+        if (!candidate.running || candidate.pending.empty() ||
+            *candidate.pending.begin() >= candidate.leaseLimit)
+            continue;
         if (!best || candidate.priority > best->priority) {
             best = &candidate;
             bestId = id;
@@ -166,7 +172,9 @@ uint32_t LeaseScheduler::pickUnit(uint64_t jobId, const Job& job, uint64_t worke
     const farm::JobGrid& grid = job.grid;
     const auto firstOfChunk = [&](uint32_t chunk) {
         auto it = job.pending.lower_bound(chunk * grid.tileCount());
-        return it != job.pending.end() && grid.chunkOf(*it) == chunk ? it : job.pending.end();
+        return it != job.pending.end() && grid.chunkOf(*it) == chunk && *it < job.leaseLimit
+                   ? it
+                   : job.pending.end();
     };
     std::set<uint32_t> taken;
     const double recent = m_clock.monotonicSeconds() - m_options.leaseSeconds;
@@ -179,7 +187,7 @@ uint32_t LeaseScheduler::pickUnit(uint64_t jobId, const Job& job, uint64_t worke
             taken.insert(chunk->second);
         }
     }
-    for (auto it = job.pending.begin(); it != job.pending.end();) {
+    for (auto it = job.pending.begin(); it != job.pending.end() && *it < job.leaseLimit;) {
         const uint32_t chunk = grid.chunkOf(*it);
         if (!taken.count(chunk)) return *it;
         it = job.pending.lower_bound((chunk + 1) * grid.tileCount());
@@ -197,6 +205,7 @@ bool LeaseScheduler::renew(uint64_t workerId, uint64_t leaseId, const HeldUnit* 
         auto adopted = m_jobs.find(held->jobId);
         if (adopted != m_jobs.end() && adopted->second.running &&
             held->unitIndex < adopted->second.units.size() &&
+            held->unitIndex < adopted->second.leaseLimit &&
             adopted->second.units[held->unitIndex].state == UnitState::Pending &&
             m_tokens.grantedEarlier(held->token, leaseId, workerId, held->jobId, held->unitIndex)) {
             grant(held->jobId, adopted->second, held->unitIndex, workerId, leaseId);
@@ -212,7 +221,8 @@ bool LeaseScheduler::renew(uint64_t workerId, uint64_t leaseId, const HeldUnit* 
 
 bool LeaseScheduler::mayMerge(uint64_t jobId, uint32_t unitIndex, uint64_t leaseId) const {
     const Job& target = job(jobId);
-    if (!target.running || unitIndex >= target.units.size()) return false;
+    if (!target.running || unitIndex >= target.units.size() || unitIndex >= target.leaseLimit)
+        return false;
     const UnitSlot& slot = target.units[unitIndex];
     if (slot.state == UnitState::Merged) return false;
     return slot.state == UnitState::Pending || slot.leaseId == leaseId;

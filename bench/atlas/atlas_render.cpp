@@ -11,8 +11,8 @@
 //     the relative RMSE against REF.exr (empty without a reference) and the film's own predicted
 //     relative RMSE. The ladder stops early once the next render would push the total CPU time
 //     over the budget (CPU time: the machine may be shared, and wall time then measures the
-//     others' load as much as ours). --write-exr writes the image of the last render (used for the
-//     references).
+//     others' load as much as ours). --write-exr writes the image of the last render done
+//     (the references).
 //
 //   bench_atlas_render compare A.exr B.exr      prints the relative RMSE of A against B
 //   bench_atlas_render average A.exr B.exr OUT.exr   writes the pixelwise mean of A and B
@@ -193,7 +193,7 @@ int renderMode(int argc, char** argv) {
         const std::string predicted;
         std::printf("%ld,%.6f,%.6f,%s,%s\n", passes, wall, cpu, error.c_str(), predicted.c_str());
         std::fflush(stdout);
-        if (!outputPath.empty() && passes == ladder.back()) writeEXR(outputPath, image);
+        if (!outputPath.empty()) writeEXR(outputPath, image);  // the last one done stays
         totalCpuSeconds += cpu;
         lastCpuSeconds = cpu;
         lastPasses = passes;

@@ -329,7 +329,8 @@ def check(out, scenes, results):
     last point below the first (every atlas series falls from pass 1), and every chart exists."""
     problems = []
     for name in scenes:
-        if not os.path.getsize(os.path.join(out, name + ".png")) > 0:
+        chart_path = os.path.join(out, name + ".png")
+        if not (os.path.exists(chart_path) and os.path.getsize(chart_path) > 0):
             problems.append("%s: no chart" % name)
         for label, rows in results[name].items():
             errors = [float(r["relative_rmse"]) for r in rows]
@@ -368,7 +369,7 @@ def main():
 
     catalogue = QUICK_SCENES if args.quick else SCENES
     if args.quick:
-        args.series_cpu_budget, args.reference_cpu_budget, args.max_passes = 1.0, 2.0, 64
+        args.series_cpu_budget, args.reference_cpu_budget, args.max_passes = 0.6, 1.0, 64
     names = args.scenes.split(",") if args.scenes else list(catalogue)
     for name in names:
         if name not in catalogue:

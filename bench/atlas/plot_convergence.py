@@ -15,7 +15,18 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.ticker import FuncFormatter, LogLocator  # noqa: E402
 
+
+
+def label_log_ticks(ax):
+    """Tick values at 1, 2 and 5 of every decade on both log axes, so that a curve spanning less
+    than a decade still has numbers beside it."""
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_locator(LogLocator(base=10))
+        axis.set_minor_locator(LogLocator(base=10, subs=(2, 5)))
+        axis.set_major_formatter(FuncFormatter(lambda value, _: "%g" % value))
+        axis.set_minor_formatter(FuncFormatter(lambda value, _: "%g" % value))
 
 def slope(points):
     """Least-squares slope of log(rmse) against log(seconds)."""
@@ -45,6 +56,7 @@ def main():
     ax.set_ylabel("RMS error (radiance) over the crop's pixels and channels")
     ax.set_title("Caustic scene, 128 x 96 crop: error against time\n"
                  "reference: progressive photon mapper, 2048 passes, another seed")
+    label_log_ticks(ax)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     fig.tight_layout()

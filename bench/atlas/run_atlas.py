@@ -24,6 +24,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.ticker import FuncFormatter, LogLocator  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
@@ -32,6 +33,16 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 SERIES_SEED = 1
 REFERENCE_SEEDS = (1001, 1002)
 
+
+
+def label_log_ticks(ax):
+    """Tick values at 1, 2 and 5 of every decade on both log axes, so that a curve spanning less
+    than a decade still has numbers beside it."""
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_locator(LogLocator(base=10))
+        axis.set_minor_locator(LogLocator(base=10, subs=(2, 5)))
+        axis.set_major_formatter(FuncFormatter(lambda value, _: "%g" % value))
+        axis.set_minor_formatter(FuncFormatter(lambda value, _: "%g" % value))
 
 def progressive_slope(alpha):
     """The Knaus-Zwicker rate of relative RMSE against passes N (and time, each pass costing the
@@ -149,7 +160,7 @@ SCENES = {
     "projector_fog": dict(
         title="Checkerboard projector in heterogeneous (Perlin) fog, 160 x 90",
         path="scenes/seed/projector_fog.xml", size="160x90",
-        reference=("volume_path_mis", []),
+        reference=("volume_path_mis", []), reference_budget_factor=4,
         series=volume_series(100000, 0.1, 0.1, 10, delta_lights=True, progressive_volume_k=10)),
     "medium_sphere_scatter": dict(
         title="Scattering medium sphere (sigmaS 10, isotropic) under an area light, 120 x 90",
@@ -291,6 +302,7 @@ def chart(path, name, scene, rows_by_label, series_by_label, slopes, reference):
         ax.axhline(reference["relative_noise"], color="grey", linestyle="--",
                    label="reference's own noise (%.3g)" % reference["relative_noise"])
         ax.set_xlabel(xlabel)
+        label_log_ticks(ax)
         ax.grid(True, which="both", alpha=0.3)
     axes[0].set_ylabel("relative RMSE of luminance (RMSE / mean)")
     axes[0].legend(fontsize=7, loc="lower left")

@@ -160,6 +160,7 @@ SCENES = {
     "projector_fog": dict(
         title="Checkerboard projector in heterogeneous (Perlin) fog, 160 x 90",
         path="scenes/seed/projector_fog.xml", size="160x90",
+        # Delta lights in textured fog: volume_path_mis needs a longer run for a usable reference.
         reference=("volume_path_mis", []), reference_budget_factor=4,
         series=volume_series(100000, 0.1, 0.1, 10, delta_lights=True, progressive_volume_k=10)),
     "medium_sphere_scatter": dict(
@@ -180,7 +181,7 @@ SCENES = {
     "stage_crop": dict(
         title="Stage: crop 160 x 120 of the 480 x 270 image (spotlights, projectors, fog)",
         path="scenes/stage/stage.xml", size="480x270", crop="160,60,320,180",
-        reference=("volume_path_mis", []),
+        reference=("volume_path_mis", []), reference_budget_factor=4,
         series=volume_series(200000, 0.04, 0.1, 10, delta_lights=True)),
 }
 

@@ -188,9 +188,11 @@ int renderMode(int argc, char** argv) {
                 image.set(x - window.x0, y - window.y0, whole.get(x, y));
         std::string error;
         if (reference) error = std::to_string(relativeRmse(image, *reference));
-        // The film's own error estimate goes in the last column once the film provides one;
-        // run_atlas.py draws it beside the true error whenever the column is filled.
-        const std::string predicted;
+        // The film's own error estimate (its pass-parity halves, over the same window);
+        // run_atlas.py draws it beside the true error. Empty where none can be made (1 pass).
+        std::string predicted;
+        if (const auto estimate = estimateError(film, window, uint32_t(passes)))
+            predicted = std::to_string(estimate->relativeRmse);
         std::printf("%ld,%.6f,%.6f,%s,%s\n", passes, wall, cpu, error.c_str(), predicted.c_str());
         std::fflush(stdout);
         if (!outputPath.empty()) writeEXR(outputPath, image);  // the last one done stays

@@ -64,6 +64,18 @@ bool LeaseScheduler::running(uint64_t jobId) const {
     return job(jobId).running;
 }
 
+void LeaseScheduler::setPaused(uint64_t jobId, bool paused) {
+    job(jobId).paused = paused;
+}
+
+bool LeaseScheduler::paused(uint64_t jobId) const {
+    return job(jobId).paused;
+}
+
+void LeaseScheduler::setPriority(uint64_t jobId, int priority) {
+    job(jobId).priority = priority;
+}
+
 LeaseScheduler::JobLeases LeaseScheduler::jobLeases(uint64_t jobId) const {
     return job(jobId).counts;
 }
@@ -141,7 +153,7 @@ std::optional<LeaseScheduler::Lease> LeaseScheduler::lease(uint64_t workerId) {
     uint64_t bestId = 0;
     Job* best = nullptr;
     for (auto& [id, candidate] : m_jobs) {
-        if (!candidate.running || candidate.pending.empty()) continue;
+        if (!candidate.running || candidate.paused || candidate.pending.empty()) continue;
         if (!best || candidate.priority > best->priority) {
             best = &candidate;
             bestId = id;

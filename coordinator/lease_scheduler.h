@@ -74,6 +74,10 @@ class LeaseScheduler {
     // Forgets an ended job.
     void removeJob(uint64_t jobId);
     bool running(uint64_t jobId) const;
+    // A paused job gets no new leases; its leases out may still be renewed, merged and failed.
+    void setPaused(uint64_t jobId, bool paused);
+    bool paused(uint64_t jobId) const;
+    void setPriority(uint64_t jobId, int priority);
     JobLeases jobLeases(uint64_t jobId) const;
     const UnitSlot& unit(uint64_t jobId, uint32_t unitIndex) const;
 
@@ -124,6 +128,7 @@ class LeaseScheduler {
     struct Job {
         int priority = 0;
         bool running = true;
+        bool paused = false;
         farm::JobGrid grid;
         std::vector<UnitSlot> units;
         std::set<uint32_t> pending;

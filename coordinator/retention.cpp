@@ -18,4 +18,17 @@ std::vector<BlobStore::StoredBlob> Retention::unusedBlobs(
     return unused;
 }
 
+std::vector<std::string> Retention::deletedJobBlobs(
+    const std::set<std::string>& jobBlobs, const std::set<std::string>& referenced,
+    const std::unordered_map<std::string, double>& touchedAt, double submittedAt) {
+    std::vector<std::string> result;
+    for (const std::string& sha : jobBlobs) {
+        if (referenced.count(sha)) continue;
+        if (auto it = touchedAt.find(sha); it != touchedAt.end() && it->second > submittedAt)
+            continue;
+        result.push_back(sha);
+    }
+    return result;
+}
+
 }  // namespace alphorn::coordinator

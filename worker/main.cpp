@@ -53,12 +53,17 @@ int main(int argc, char** argv) {
             threadLimit = std::make_unique<tbb::global_control>(
                 tbb::global_control::max_allowed_parallelism, options.threads);
         worker::Worker worker(options);
+        // SIGTERM (docker stop, systemctl stop, a Kubernetes pod's end) drains: the unit in
+        // hand is finished and delivered, then the worker exits 0. A second signal abandons the
+        // unit, hands it back and exits at once.
         std::thread signalThread([&] {
-            for (;;) {
+            for (int received = 1;; ++received) {
                 int signal = 0;
                 sigwait(&signals, &signal);
                 farm::logInfo("worker.signal",
-                              {farm::field("signal", signal), farm::field("action", "draining")});
+                              {farm::field("signal", signal),
+                               farm::field("action", received == 1 ? "draining"
+                                                                   : "handing back and exiting")});
                 worker.requestStop();
             }
         });

@@ -190,6 +190,8 @@ void Worker::heartbeatLoop() {
         if (m_mustRegister) continue;
         v1::HeartbeatRequest request;
         request.set_worker_id(m_workerId);
+        // So `alphorn workers` shows this worker draining from the moment it was told to stop.
+        request.set_draining(m_stopRequests > 0);
         for (const auto& [lease, unit] : m_activeLeases) {
             request.add_lease_ids(lease);
             *request.add_held_units() = unit;
@@ -292,8 +294,9 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
         header.set_built_pass_data(built);
         FilmBlock block = makeUnitBlock(*job.scene, unit.tile);
         const auto start = std::chrono::steady_clock::now();
+        RenderCounters counters;
         const bool complete =
-            renderUnit(*job.scene, job.seed, unit, passData, block, nullptr, &m_cancelRender);
+            renderUnit(*job.scene, job.seed, unit, passData, block, &counters, &m_cancelRender);
         if (!complete) {
             std::lock_guard lock(m_leaseMutex);
             if (m_fencedLeases.count(lease.lease_id())) {
@@ -315,6 +318,8 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
         header.set_compressed_sha256(farm::sha256Hex(result.compressed));
         const double seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        header.set_rays(counters.rays);
+        header.set_render_seconds(seconds);
         logInfo("unit.rendered", {field("job", job.jobId), field("unit", lease.unit().unit_index()),
                                   field("seconds", seconds)});
     } catch (const std::exception& e) {
@@ -357,8 +362,11 @@ bool Worker::deliver(Result& result) {
         }
         // The call waits for a coordinator that is away (restarting) and goes out the moment it
         // is back; when stopping, no longer than the drain time left.
+        // A second stop request wants the worker gone: one attempt of at most a second.
         auto timeout = m_options.deliverTimeout;
-        if (m_stopRequests > 0)
+        if (m_stopRequests > 1)
+            timeout = std::min(std::chrono::milliseconds(1000), timeout);
+        else if (m_stopRequests > 0)
             timeout = std::clamp(std::chrono::duration_cast<std::chrono::milliseconds>(
                                      giveUpAt - std::chrono::steady_clock::now()),
                                  std::min(std::chrono::milliseconds(1000), timeout), timeout);
@@ -408,7 +416,9 @@ bool Worker::deliver(Result& result) {
                                           field("error", status.error_message())});
             return true;
         }
-        if (m_stopRequests > 0 && std::chrono::steady_clock::now() > giveUpAt) return false;
+        if (m_stopRequests > 1 ||
+            (m_stopRequests > 0 && std::chrono::steady_clock::now() > giveUpAt))
+            return false;
         if (retry.failures() == 0)
             logWarning("result.undelivered", {field("job", result.header.job_id()),
                                               field("unit", result.header.unit_index()),
@@ -418,10 +428,24 @@ bool Worker::deliver(Result& result) {
     }
 }
 
+void Worker::sayGoodbye() {
+    if (m_mustRegister) return;
+    // The coordinator lists the worker as gone at once instead of after its silence; should
+    // the call fail, that is what happens.
+    v1::HeartbeatRequest request;
+    request.set_worker_id(m_workerId);
+    request.set_draining(true);
+    request.set_exiting(true);
+    v1::HeartbeatResponse response;
+    auto ctx = context(std::chrono::milliseconds(1000));
+    m_stub->Heartbeat(ctx.get(), request, &response);
+}
+
 int Worker::run() {
     registerWithCoordinator();
     m_heartbeat = std::thread([this] { heartbeatLoop(); });
     farm::RetryPolicy retry = makeRetryPolicy();
+    bool drainedByClient = false;
     while (m_stopRequests == 0) {
         if (m_mustRegister) {
             registerWithCoordinator();
@@ -459,6 +483,11 @@ int Worker::run() {
         if (retry.failures() > 0)
             logInfo("coordinator.back", {field("failed_attempts", retry.failures())});
         retry.reset();
+        if (lease.draining() != drainedByClient) {
+            drainedByClient = lease.draining();
+            logInfo(drainedByClient ? "worker.drain_requested" : "worker.undrained",
+                    {field("worker", m_workerId.load()), field("by", "client")});
+        }
         if (!lease.has_work()) continue;
         {
             std::lock_guard lock(m_leaseMutex);
@@ -480,6 +509,7 @@ int Worker::run() {
         m_activeLeases.erase(lease.lease_id());
         m_fencedLeases.erase(lease.lease_id());
     }
+    sayGoodbye();
     logInfo("worker.drained", {field("worker", m_workerId.load())});
     return 0;
 }

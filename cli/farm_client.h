@@ -3,11 +3,13 @@
 #pragma once
 
 #include "alphorn/v1/client_service.grpc.pb.h"
+#include "cli/commands.h"
 
 #include <CLI/CLI.hpp>
 
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace alphorn::cli {
 
@@ -79,6 +81,8 @@ class FarmClient {
 };
 
 std::string toJson(const google::protobuf::Message& message);
+// "user@host": who submits, as `alphorn status` shows it ($USER, else the password database).
+std::string submitterName();
 
 }  // namespace alphorn::cli
 
@@ -99,5 +103,9 @@ struct SubmitOptions {
 
 // `alphorn submit` after option parsing; also what `alphorn cluster --render` runs.
 int runSubmit(FarmClient& client, const SubmitOptions& options, bool json);
+
+// Job and worker control (cli/farm_commands.cpp): retry, pause, resume, priority, delete, logs,
+// drain, undrain.
+std::vector<Command> addControlCommands(CLI::App& app);
 
 }  // namespace alphorn::cli

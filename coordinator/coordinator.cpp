@@ -438,6 +438,10 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
                               field("size", absl::StrFormat("%dx%d", grid.width(), grid.height())),
                               field("passes", settings.passes()), field("units", grid.unitCount()),
                               field("priority", settings.priority())});
+    // The submission consumes the touches of its blobs (the uses that led to it): a touch
+    // from now on means another submission is under way (see Retention::deletedJobBlobs).
+    for (const v1::BundleFile& file : job->description.bundle().files())
+        m_blobsTouchedAt.erase(file.sha256());
     m_jobs[id] = std::move(job);
     saveEventLogsLocked(id);
     m_workAvailable.notify_all();
@@ -752,8 +756,7 @@ v1::DeleteJobResponse Coordinator::deleteJob(uint64_t jobId, bool cancelRunning)
         std::error_code ignored;
         fs::remove_all(jobDirectory(jobId), ignored);
     }
-    for (const std::string& sha :
-         Retention::deletedJobBlobs(jobBlobs, referenced, touchedAt, deleted->createdAt)) {
+    for (const std::string& sha : Retention::deletedJobBlobs(jobBlobs, referenced, touchedAt)) {
         if (!m_blobs.has(sha)) continue;
         response.set_blob_bytes_removed(response.blob_bytes_removed() + m_blobs.size(sha));
         response.set_blobs_removed(response.blobs_removed() + 1);

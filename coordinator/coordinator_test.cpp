@@ -884,16 +884,18 @@ TEST_F(CoordinatorJob, ARetriedFailedJobForgetsItsAttempts) {
 }
 
 // Delete: a running job is refused unless cancelled with it; the record, the directory and the
-// blobs only it used go at once (a blob another job uses stays), also for a restart.
+// blobs only it used go at once (a blob another job uses stays; the uses of a blob before the
+// job's submission do not keep it), also for a restart.
 TEST_F(CoordinatorJob, DeleteRemovesTheJobItsFilesAndTheBlobsOnlyItUsed) {
     uint64_t deleted = 0, kept = 0;
     std::string scene, sphere;
     {
         Coordinator coordinator(m_options);
         const v1::SubmitJobRequest request = upload(coordinator);
-        deleted = coordinator.submit(request).job_id();
         for (const v1::BundleFile& file : request.bundle().files())
             (file.path() == "sphere.obj" ? sphere : scene) = file.sha256();
+        coordinator.touchBlobs({scene, sphere});  // as the client's HasBlobs before it submits
+        deleted = coordinator.submit(request).job_id();
         std::string message = refusal([&] { coordinator.deleteJob(deleted, false); });
         EXPECT_NE(message.find("is running: cancel it first"), std::string::npos) << message;
         EXPECT_TRUE(fs::exists(coordinator.jobDirectory(deleted)));

@@ -20,14 +20,10 @@ std::vector<BlobStore::StoredBlob> Retention::unusedBlobs(
 
 std::vector<std::string> Retention::deletedJobBlobs(
     const std::set<std::string>& jobBlobs, const std::set<std::string>& referenced,
-    const std::unordered_map<std::string, double>& touchedAt, double submittedAt) {
+    const std::unordered_map<std::string, double>& touchedAt) {
     std::vector<std::string> result;
-    for (const std::string& sha : jobBlobs) {
-        if (referenced.count(sha)) continue;
-        if (auto it = touchedAt.find(sha); it != touchedAt.end() && it->second > submittedAt)
-            continue;
-        result.push_back(sha);
-    }
+    for (const std::string& sha : jobBlobs)
+        if (!referenced.count(sha) && !touchedAt.count(sha)) result.push_back(sha);
     return result;
 }
 

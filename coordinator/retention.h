@@ -30,12 +30,12 @@ class Retention {
         const std::unordered_map<std::string, double>& touchedAt, double now) const;
 
     // The blobs to delete with a job deleted now: those of `jobBlobs` that no remaining job
-    // references and that nobody offered, stored or asked for after `submittedAt` (the deleted
-    // job's submission), so a submission under way that uses them keeps them. The keep time
-    // does not apply.
+    // references and that nobody offered, stored or asked for since the last submission that
+    // used them (`touchedAt` holds only such uses: a submission consumes the touches of its
+    // blobs), so an upload for a submission under way keeps them. The keep time does not apply.
     static std::vector<std::string> deletedJobBlobs(
         const std::set<std::string>& jobBlobs, const std::set<std::string>& referenced,
-        const std::unordered_map<std::string, double>& touchedAt, double submittedAt);
+        const std::unordered_map<std::string, double>& touchedAt);
 
   private:
     double m_keep;

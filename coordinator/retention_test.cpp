@@ -24,15 +24,14 @@ TEST(Retention, UnusedBlobsAreThoseUnreferencedAndNotUsedWithinTheKeepTime) {
 }
 
 // A job deleted now takes the blobs only it used, except those a client offered, stored or asked
-// for after the job's submission (a submission under way may use them); the keep time does not
-// apply.
+// for since they were last submitted (a submission under way may use them); the keep time does
+// not apply.
 TEST(Retention, ADeletedJobTakesTheBlobsOnlyItUsed) {
-    const std::set<std::string> jobBlobs{"scene", "shared", "resubmitted", "asked-before"};
+    const std::set<std::string> jobBlobs{"scene", "shared", "asked-since"};
     const std::set<std::string> referenced{"shared"};
-    const std::unordered_map<std::string, double> touchedAt{{"resubmitted", 1001},
-                                                            {"asked-before", 999}};
-    EXPECT_EQ(Retention::deletedJobBlobs(jobBlobs, referenced, touchedAt, 1000),
-              (std::vector<std::string>{"asked-before", "scene"}));
+    const std::unordered_map<std::string, double> touchedAt{{"asked-since", 1001}};
+    EXPECT_EQ(Retention::deletedJobBlobs(jobBlobs, referenced, touchedAt),
+              (std::vector<std::string>{"scene"}));
 }
 
 }  // namespace

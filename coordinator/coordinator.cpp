@@ -238,10 +238,7 @@ void Coordinator::stop() {
     m_workAvailable.notify_all();
     if (m_background.joinable()) m_background.join();
     checkpointDirtyJobs();
-    {
-        std::lock_guard lock(m_mutex);
-        saveEventLogsLocked();
-    }
+    saveChangedEventLogs();
     logInfo("coordinator.stopped");
 }
 
@@ -279,12 +276,9 @@ void Coordinator::tick() {
     }
     if (m_clock->monotonicSeconds() >= m_nextCheckpoint) {
         checkpointDirtyJobs();
-        {
-            // The event logs are stored with each round of checkpoints: a crash loses at most
-            // the events since, as it loses the merges since.
-            std::lock_guard lock(m_mutex);
-            saveEventLogsLocked();
-        }
+        // The event logs are stored with each round of checkpoints: a crash loses at most the
+        // events since, as it loses the merges since.
+        saveChangedEventLogs();
         m_nextCheckpoint = m_clock->monotonicSeconds() + m_options.checkpointIntervalSeconds;
     }
 }
@@ -571,6 +565,28 @@ void Coordinator::saveEventLogsLocked(std::optional<uint64_t> jobId) {
             job->events.markSaved();
         } catch (const StorageError& e) {
             logWarning("job.log_not_saved", {field("job", id), field("error", e.what())});
+        }
+    }
+}
+
+void Coordinator::saveChangedEventLogs() {
+    // Copied under the lock, written without it: many jobs' logs take many fsyncs.
+    std::vector<std::pair<uint64_t, v1::JobEventLog>> changed;
+    {
+        std::lock_guard lock(m_mutex);
+        for (auto& [id, job] : m_jobs) {
+            if (!job->events.changed()) continue;
+            changed.emplace_back(id, job->events.record());
+            job->events.markSaved();
+        }
+    }
+    for (const auto& [id, log] : changed) {
+        try {
+            m_store.saveJobLog(id, log);
+        } catch (const StorageError& e) {
+            logWarning("job.log_not_saved", {field("job", id), field("error", e.what())});
+            std::lock_guard lock(m_mutex);
+            if (auto it = m_jobs.find(id); it != m_jobs.end()) it->second->events.markChanged();
         }
     }
 }

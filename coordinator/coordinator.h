@@ -211,6 +211,8 @@ class Coordinator {
     // Stores the event logs that changed (every job, or one); a failure is logged, not thrown:
     // a log is worth less than the work it records.
     void saveEventLogsLocked(std::optional<uint64_t> jobId = std::nullopt);
+    // The same for every job, writing without m_mutex (the checkpoint rounds and stop()).
+    void saveChangedEventLogs();
     // The job, refusing with FailedPrecondition unless it is running (for pause and priority).
     Job& runningJobLocked(uint64_t jobId, const char* action, const char* done);
 

@@ -41,6 +41,7 @@ class EventLog {
     v1::JobEventLog record() const;
     bool changed() const { return m_changed; }
     void markSaved() { m_changed = false; }
+    void markChanged() { m_changed = true; }  // a save failed: try again
 
   private:
     void append(v1::JobEvent event);

@@ -169,10 +169,11 @@ void JobStore::setJobPaused(uint64_t jobId, bool paused) {
 }
 
 void JobStore::saveJobLog(uint64_t jobId, const v1::JobEventLog& log) {
+    // Only for a job that exists: a log saved as its job is removed must not outlive it.
     m_db.execute(
-        "INSERT INTO job_logs(job_id, log) VALUES(?, ?) "
-        "ON CONFLICT(job_id) DO UPDATE SET log = excluded.log",
-        {int64_t(jobId), log.SerializeAsString()});
+        "INSERT INTO job_logs(job_id, log) SELECT ?, ? WHERE EXISTS (SELECT 1 FROM jobs WHERE "
+        "id = ?) ON CONFLICT(job_id) DO UPDATE SET log = excluded.log",
+        {int64_t(jobId), log.SerializeAsString(), int64_t(jobId)});
 }
 
 v1::JobEventLog JobStore::jobLog(uint64_t jobId) {

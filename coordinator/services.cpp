@@ -174,6 +174,7 @@ grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context,
             comparable.clear_elapsed_seconds();
             comparable.clear_eta_seconds();
             comparable.clear_samples_per_second();
+            comparable.clear_rays_per_second();
             std::string serialized = comparable.SerializeAsString();
             const auto now = std::chrono::steady_clock::now();
             if (serialized != last || now - lastSent > std::chrono::seconds(2)) {

@@ -304,7 +304,8 @@ v1::JobStatus FarmClient::watch(uint64_t jobId, bool quiet) {
                                                           status.units_total(), "units");
             progress->update(
                 status.units_done(),
-                absl::StrFormat("%u/%u passes  %s  %u workers%s", status.passes_done(),
+                absl::StrFormat("%s%u/%u passes  %s  %u workers%s",
+                                status.paused() ? "paused  " : "", status.passes_done(),
                                 status.settings().passes(),
                                 speedText(status.samples_per_second(), status.rays_per_second()),
                                 status.active_workers(),

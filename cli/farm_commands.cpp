@@ -388,9 +388,10 @@ std::vector<Command> addControlCommands(CLI::App& app) {
                 FarmClient::check(
                     client.stub().SetJobPaused(client.context().get(), request, &response),
                     "SetJobPaused");
-                said = pause ? absl::StrFormat("job %u paused; %u units out may still finish",
-                                               jobId, response.status().units_leased())
-                             : absl::StrFormat("job %u resumed", jobId);
+                said = pause
+                           ? absl::StrFormat("job %u paused; units out, which may still finish: %u",
+                                             jobId, response.status().units_leased())
+                           : absl::StrFormat("job %u resumed", jobId);
                 return response.status();
             }));
     auto priority = std::make_shared<int32_t>(0);

@@ -954,6 +954,9 @@ v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId,
 v1::HeartbeatResponse Coordinator::heartbeat(const v1::HeartbeatRequest& request) {
     std::lock_guard lock(m_mutex);
     v1::HeartbeatResponse response;
+    // A heartbeat of the stopping process that arrives after its goodbye leaves it gone.
+    const auto known = m_workers.find(request.worker_id());
+    const bool leftBefore = known != m_workers.end() && known->second.left;
     WorkerRecord* worker = touchWorkerLocked(request.worker_id());
     if (!worker) {
         response.set_unknown_worker(true);
@@ -964,6 +967,7 @@ v1::HeartbeatResponse Coordinator::heartbeat(const v1::HeartbeatRequest& request
         worker->exiting = true;
         logInfo("worker.draining", {field("worker", request.worker_id()), field("by", "SIGTERM")});
     }
+    if (leftBefore && request.draining() && request.lease_ids_size() == 0) worker->left = true;
     if (request.exiting() && request.lease_ids_size() == 0) {
         worker->left = true;
         logInfo("worker.left", {field("worker", request.worker_id())});

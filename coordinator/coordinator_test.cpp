@@ -1038,6 +1038,9 @@ TEST_F(CoordinatorJob, WorkerStatesFollowTheirCalls) {
     EXPECT_EQ(info.state(), v1::WORKER_STATE_LEFT);
     EXPECT_FALSE(info.alive());
     EXPECT_TRUE(coordinator.listWorkers(false).empty());
+    stopping.set_exiting(false);  // a heartbeat of the stopping process, late on the network
+    coordinator.heartbeat(stopping);
+    EXPECT_EQ(coordinator.listWorkers(true).at(0).state(), v1::WORKER_STATE_LEFT);
     coordinator.stop();
 }
 

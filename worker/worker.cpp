@@ -509,6 +509,13 @@ int Worker::run() {
         m_activeLeases.erase(lease.lease_id());
         m_fencedLeases.erase(lease.lease_id());
     }
+    // No heartbeat may follow the goodbye: it would list the worker alive again.
+    {
+        std::lock_guard lock(m_leaseMutex);
+        m_finished = true;
+    }
+    m_leaseWake.notify_all();
+    if (m_heartbeat.joinable()) m_heartbeat.join();
     sayGoodbye();
     logInfo("worker.drained", {field("worker", m_workerId.load())});
     return 0;

@@ -3,7 +3,7 @@
 # resume -> priority -> drain -> undrain -> SIGTERM drain -> cancel and retry -> delete, the
 # event log (also after a coordinator restart), refusals (a worker token, a finished job), and a
 # killed worker shown silent long before it is dead. The retried job's EXR is byte for byte a
-# fresh job's and `alphorn render`'s.
+# fresh job's and `alphorn render`'s, and no lease is lost on the way (no failed attempt).
 source "$(dirname "$0")/farm_lib.sh"
 
 start_coordinator 127.0.0.1:0 --lease-seconds 4 --checkpoint-interval 1
@@ -93,6 +93,7 @@ wait "$worker_b" || fail "worker b did not exit 0 after SIGTERM"
 grep -q "event=worker.drained" "$WORK/worker-b.log" || fail "worker b did not drain"
 [[ $(worker_value b state) == WORKER_STATE_LEFT ]] || fail "worker b is not shown as left: $(worker_json b)"
 pass "SIGTERM: worker b delivered its unit, exited 0 and is listed as left"
+ALPHORN_TEST_UNIT_DELAY_MS=250 start_worker c  # b's replacement, as an orchestrator would start
 
 # ---- cancel and retry: the same bytes as a fresh job (job 2) and as alphorn render.
 "$ALPHORN" cancel "$job1" >/dev/null || fail "cancel failed"

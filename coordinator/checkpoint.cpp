@@ -3,6 +3,7 @@
 #include "common/core/error.h"
 #include "common/farm/files.h"
 #include "common/farm/film_codec.h"
+#include "common/farm/metrics.h"
 #include "common/farm/sha256.h"
 
 #include <cstring>
@@ -33,6 +34,7 @@ T take(const std::string& in, size_t& offset) {
 
 void writeCheckpoint(const std::string& path, const FilmBlock& film,
                      const std::vector<bool>& merged) {
+    const farm::Stopwatch stopwatch;
     std::string out(kMagic, sizeof kMagic);
     put<uint32_t>(out, static_cast<uint32_t>(film.width()));
     put<uint32_t>(out, static_cast<uint32_t>(film.height()));
@@ -44,6 +46,7 @@ void writeCheckpoint(const std::string& path, const FilmBlock& film,
     out += compressed;
     out += farm::sha256Hex(out);
     farm::writeFileAtomically(path, out);
+    farm::CoordinatorMetrics::checkpointWritten(stopwatch.seconds(), out.size());
 }
 
 Checkpoint readCheckpoint(const std::string& path, int width, int height, uint32_t unitCount) {

@@ -1,5 +1,7 @@
 #include "coordinator/job_film.h"
 
+#include "common/farm/metrics.h"
+
 namespace alphorn::coordinator {
 
 JobFilm::JobFilm(const farm::JobGrid& grid, std::string checkpointPath)
@@ -35,21 +37,23 @@ void JobFilm::restore(Checkpoint checkpoint, bool keepFilm) {
     if (keepFilm) m_film = std::move(checkpoint.film);
 }
 
-void JobFilm::countMerged(uint32_t unitIndex) {
+uint64_t JobFilm::countMerged(uint32_t unitIndex) {
     m_merged[unitIndex] = true;
     ++m_mergedCount;
     const RenderUnit unit = m_grid.unit(unitIndex);
-    m_samplesMerged +=
+    const uint64_t samples =
         uint64_t(unit.tile.width()) * unit.tile.height() * (unit.passEnd - unit.passBegin);
+    m_samplesMerged += samples;
     const uint32_t chunk = m_grid.chunkOf(unitIndex);
     if (++m_mergedPerChunk[chunk] == m_grid.tileCount())
         m_passesComplete += m_grid.chunkPasses(chunk);
+    return samples;
 }
 
 void JobFilm::merge(uint32_t unitIndex, const FilmBlock& block) {
     if (m_merged.at(unitIndex)) fail("unit %u is merged already", unitIndex);
     m_film.add(block);
-    countMerged(unitIndex);
+    farm::CoordinatorMetrics::unitMerged(countMerged(unitIndex));
 }
 
 void JobFilm::writeFile(const Copy& copy) const {

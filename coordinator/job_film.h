@@ -6,6 +6,7 @@
 #pragma once
 
 #include "common/farm/job_grid.h"
+#include "common/farm/metrics.h"
 #include "common/render/film.h"
 #include "coordinator/checkpoint.h"
 
@@ -62,14 +63,18 @@ class JobFilm {
     void writeFile(const Copy& copy) const;
     Checkpoint readFile() const;
     void checkpointWritten(uint32_t count);
-    void checkpointFailed(const std::string& error) { m_checkpointError = error; }
+    void checkpointFailed(const std::string& error) {
+        m_checkpointError = error;
+        farm::CoordinatorMetrics::checkpointFailed();
+    }
     void clearCheckpointError() { m_checkpointError.clear(); }
     // The last failed write (e.g. a full disk); cleared by the next success.
     const std::string& checkpointError() const { return m_checkpointError; }
     uint32_t checkpointsWritten() const { return m_checkpointsWritten; }
 
   private:
-    void countMerged(uint32_t unitIndex);
+    // Marks the unit merged and counts it; returns its samples (tile pixels x passes).
+    uint64_t countMerged(uint32_t unitIndex);
 
     farm::JobGrid m_grid;
     std::string m_path;

@@ -1,6 +1,7 @@
 #include "coordinator/lease_scheduler.h"
 
 #include "common/core/error.h"
+#include "common/farm/metrics.h"
 
 #include <absl/strings/str_format.h>
 
@@ -163,6 +164,7 @@ std::optional<LeaseScheduler::Lease> LeaseScheduler::lease(uint64_t workerId) {
     const uint32_t index = pickUnit(bestId, *best, workerId);
     worker->second.lastChunk[bestId] = best->grid.chunkOf(index);
     const uint64_t leaseId = m_nextLeaseId++;
+    farm::CoordinatorMetrics::unitLeased(best->units[index].leaseId != 0);  // 0: never leased
     grant(bestId, *best, index, workerId, leaseId);
     ++best->counts.leasedThisRun;
     return Lease{leaseId, bestId, index, m_tokens.token(leaseId, workerId, bestId, index)};
@@ -250,6 +252,7 @@ bool LeaseScheduler::handBack(uint64_t jobId, uint32_t unitIndex, uint64_t lease
     Job& target = job(jobId);
     release(target, target.units[unitIndex]);
     target.pending.insert(unitIndex);
+    farm::CoordinatorMetrics::unitHandedBack();
     return true;
 }
 
@@ -273,6 +276,7 @@ std::optional<LeaseScheduler::Failure> LeaseScheduler::failAttempt(uint64_t jobI
     if (!holds(jobId, unitIndex, leaseId)) return std::nullopt;
     Job& target = job(jobId);
     release(target, target.units[unitIndex]);
+    farm::CoordinatorMetrics::unitFailed(farm::CoordinatorMetrics::FailureCause::WorkerError);
     return countFailure(jobId, target, unitIndex);
 }
 
@@ -292,6 +296,7 @@ LeaseScheduler::expireLeases() {
         UnitSlot& slot = target.units[ref.unitIndex];
         const ExpiredLease lost{ref.jobId, slot.workerId, ref.unitIndex};
         release(target, slot);
+        farm::CoordinatorMetrics::unitFailed(farm::CoordinatorMetrics::FailureCause::LeaseExpired);
         result.emplace_back(lost, countFailure(ref.jobId, target, ref.unitIndex));
     }
     return result;

@@ -2,6 +2,7 @@
 
 #include "common/farm/error_reason.h"
 #include "common/farm/film_codec.h"
+#include "common/farm/metrics.h"
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
 #include "common/render/image_io.h"
@@ -328,9 +329,11 @@ grpc::Status WorkerServiceImpl::AcquireWork(grpc::ServerContext* context,
                                             const v1::AcquireWorkRequest* request,
                                             v1::AcquireWorkResponse* response) {
     return guarded(context, m_token, "AcquireWork", [&] {
+        const farm::Stopwatch call;
         // Long poll: wait up to 2 s for work, so idle workers neither spin nor lag behind a submit.
         auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
         *response = m_coordinator.acquire(request->worker_id(), until);
+        if (response->has_work()) farm::CoordinatorMetrics::leaseWaited(call.seconds());
         if (response->has_work())
             logInfo("unit.leased",
                     {field("job", response->unit().job_id()),
@@ -354,6 +357,7 @@ grpc::Status WorkerServiceImpl::ReportResult(grpc::ServerContext* context,
                                              grpc::ServerReader<v1::ResultChunk>* reader,
                                              v1::ReportResultResponse* response) {
     return guarded(context, m_token, "ReportResult", [&] {
+        const farm::Stopwatch call;
         v1::ResultChunk header;
         if (!reader->Read(&header))
             return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "empty result stream");
@@ -378,6 +382,8 @@ grpc::Status WorkerServiceImpl::ReportResult(grpc::ServerContext* context,
                                 "the result stream ended early");
         const v1::ResultDisposition disposition = m_coordinator.report(header, data);
         response->set_disposition(disposition);
+        if (disposition == v1::RESULT_MERGED)
+            farm::CoordinatorMetrics::resultMerged(call.seconds());
         if (disposition == v1::RESULT_MERGED)
             logInfo("unit.merged",
                     {field("job", header.job_id()), field("unit", header.unit_index()),

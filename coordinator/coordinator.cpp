@@ -292,6 +292,8 @@ void Coordinator::touchBlobs(const std::vector<std::string>& sha256s) {
 void Coordinator::pruneFinishedJobs(double wallNow) {
     const Retention retention(m_options.keepFinishedSeconds);
     if (retention.keepsEverything()) return;
+    // Not while retry() holds an ended job outside m_mutex (or deleteJob() works).
+    std::lock_guard control(m_controlMutex);
     std::vector<uint64_t> removed;
     std::set<std::string> referenced;
     std::unordered_map<std::string, double> touchedAt;

@@ -222,7 +222,8 @@ class Coordinator {
     JobStore m_store;
     BlobStore m_blobs;
     mutable std::mutex m_mutex;
-    // Taken before m_mutex by retry() and deleteJob(), which do file work without m_mutex.
+    // Taken before m_mutex by retry() and deleteJob(), which do file work without m_mutex, and
+    // by pruneFinishedJobs(), which must not free a job retry() holds.
     std::mutex m_controlMutex;
     std::condition_variable m_workAvailable;
     std::unique_ptr<LeaseScheduler> m_scheduler;

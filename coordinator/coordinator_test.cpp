@@ -181,6 +181,29 @@ class CoordinatorJob : public ::testing::Test {
     CoordinatorOptions m_options;
 };
 
+// Runs `change` and returns the FailedPrecondition message it throws ("" when it throws none).
+template <typename Change>
+std::string refusal(Change change) {
+    try {
+        change();
+    } catch (const FarmError& e) {
+        EXPECT_EQ(e.kind, FarmError::Kind::FailedPrecondition) << e.what();
+        return e.what();
+    }
+    return "";
+}
+
+std::vector<v1::JobEventKind> eventKinds(const v1::GetJobLogResponse& log) {
+    std::vector<v1::JobEventKind> kinds;
+    for (const v1::JobEvent& event : log.events()) kinds.push_back(event.kind());
+    return kinds;
+}
+
+bool hasEvent(const v1::GetJobLogResponse& log, v1::JobEventKind kind) {
+    const auto kinds = eventKinds(log);
+    return std::find(kinds.begin(), kinds.end(), kind) != kinds.end();
+}
+
 TEST_F(CoordinatorJob, ReverseOrderDuplicatesAndRestartGiveTheLocalFilm) {
     auto scene = loadScene((m_dir / "scene/s.xml").string());
     RenderSettings settings;
@@ -693,6 +716,8 @@ TEST_F(CoordinatorJob, ADamagedJobRecordFailsOnlyThatJob) {
     renderAllUnits(coordinator, coordinator.registerWorker(v1::RegisterRequest()));
     EXPECT_EQ(coordinator.listJobs(healthy).at(0).state(), v1::JOB_STATE_DONE);
     EXPECT_EQ(coordinator.snapshot(healthy, false).film.serialize(), localFilm());
+    const std::string message = refusal([&] { coordinator.retry(damaged); });
+    EXPECT_NE(message.find("its record could not be resumed"), std::string::npos) << message;
     coordinator.stop();
 }
 
@@ -715,29 +740,6 @@ TEST_F(CoordinatorJob, AFinishedJobWhoseCheckpointIsLostIsRenderedAgain) {
 }
 
 // ---- job and worker control ---------------------------------------------------------------
-
-// Runs `change` and returns the FailedPrecondition message it throws ("" when it throws none).
-template <typename Change>
-std::string refusal(Change change) {
-    try {
-        change();
-    } catch (const FarmError& e) {
-        EXPECT_EQ(e.kind, FarmError::Kind::FailedPrecondition) << e.what();
-        return e.what();
-    }
-    return "";
-}
-
-std::vector<v1::JobEventKind> eventKinds(const v1::GetJobLogResponse& log) {
-    std::vector<v1::JobEventKind> kinds;
-    for (const v1::JobEvent& event : log.events()) kinds.push_back(event.kind());
-    return kinds;
-}
-
-bool hasEvent(const v1::GetJobLogResponse& log, v1::JobEventKind kind) {
-    const auto kinds = eventKinds(log);
-    return std::find(kinds.begin(), kinds.end(), kind) != kinds.end();
-}
 
 // Paused: no new leases, while the lease already out merges; resumed: leasing again. The pause
 // survives a restart; a job that ended cannot be paused or resumed.

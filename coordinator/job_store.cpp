@@ -38,7 +38,8 @@ constexpr const char* kSchema[] = {
     "DROP TABLE IF EXISTS blobs",
     R"sql(CREATE TABLE IF NOT EXISTS job_logs(
   job_id INTEGER PRIMARY KEY,
-  log BLOB NOT NULL            -- serialized alphorn.v1.JobEventLog (bounded, see event_log.h)
+  log BLOB NOT NULL,           -- serialized alphorn.v1.JobEventLog (bounded, see event_log.h)
+  next_sequence INTEGER NOT NULL  -- the log's next_sequence: a newer log is never overwritten
 ))sql",
 };
 
@@ -169,11 +170,14 @@ void JobStore::setJobPaused(uint64_t jobId, bool paused) {
 }
 
 void JobStore::saveJobLog(uint64_t jobId, const v1::JobEventLog& log) {
-    // Only for a job that exists: a log saved as its job is removed must not outlive it.
+    // Only for a job that exists (a log saved as its job is removed must not outlive it), and
+    // never over a newer log (two threads may save one job's log at once).
     m_db.execute(
-        "INSERT INTO job_logs(job_id, log) SELECT ?, ? WHERE EXISTS (SELECT 1 FROM jobs WHERE "
-        "id = ?) ON CONFLICT(job_id) DO UPDATE SET log = excluded.log",
-        {int64_t(jobId), log.SerializeAsString(), int64_t(jobId)});
+        "INSERT INTO job_logs(job_id, log, next_sequence) SELECT ?, ?, ? WHERE EXISTS (SELECT 1 "
+        "FROM jobs WHERE id = ?) ON CONFLICT(job_id) DO UPDATE SET log = excluded.log, "
+        "next_sequence = excluded.next_sequence WHERE excluded.next_sequence >= "
+        "job_logs.next_sequence",
+        {int64_t(jobId), log.SerializeAsString(), int64_t(log.next_sequence()), int64_t(jobId)});
 }
 
 v1::JobEventLog JobStore::jobLog(uint64_t jobId) {

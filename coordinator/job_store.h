@@ -65,7 +65,8 @@ class JobStore {
     void setJobDescription(uint64_t jobId, const v1::JobDescription& description);
     void setJobPaused(uint64_t jobId, bool paused);
     // The job's event log (a serialized alphorn.v1.JobEventLog), written whole each time; not
-    // stored for a job the store does not have (removed meanwhile).
+    // stored for a job the store does not have (removed meanwhile), nor over a log with a
+    // higher next_sequence (a newer one).
     void saveJobLog(uint64_t jobId, const v1::JobEventLog& log);
     // The stored log; empty when there is none or it does not parse.
     v1::JobEventLog jobLog(uint64_t jobId);

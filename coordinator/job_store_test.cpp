@@ -152,6 +152,12 @@ TEST_F(JobStoreTest, ControlsAndEventLogsAreStoredAndGoWithTheirJob) {
     EXPECT_EQ(row.description->settings().priority(), -3);
     EXPECT_EQ(row.description->job_id(), job);
     EXPECT_EQ(store.jobLog(job).SerializeAsString(), log.SerializeAsString());
+    v1::JobEventLog older = log;
+    older.set_next_sequence(8);
+    older.clear_events();
+    store.saveJobLog(job, older);
+    EXPECT_EQ(store.jobLog(job).SerializeAsString(), log.SerializeAsString())
+        << "an older log overwrote a newer one";
     EXPECT_EQ(store.jobLog(job + 1).events_size(), 0);
     EXPECT_TRUE(store.unitAttempts(job).empty());
     EXPECT_TRUE(store.workers().at(0).draining);

@@ -54,7 +54,11 @@ sleep 2  # workers ask for work many times meanwhile
     fail "a paused job was leased units"
 "$ALPHORN" status | grep -E "^$job1 +paused" >/dev/null || fail "the status table does not show paused"
 "$ALPHORN" status | head -n1 | grep -q "OWNER.*SUBMITTED" || fail "the status table has no owner and submit time"
-[[ $(job_field "$job1" owner) == "$(id -un)@$(hostname)" || -n $(job_field "$job1" owner) ]] || fail "no owner"
+owner=$(job_field "$job1" owner)
+[[ $owner == "${USER:-$(id -un)}@$(hostname)" ]] || fail "the owner is \"$owner\", not the submitting user@host"
+submitted=$(job_field "$job1" submitted_at_unix_seconds)
+awk -v t="$submitted" -v now="$(date +%s)" 'BEGIN { exit !(t > now - 600 && t < now + 5) }' ||
+    fail "the submit time $submitted is not the time of the submission"
 pass "paused at $done_paused of $(job_field "$job1" units_total) units: nothing leased for 2 s"
 
 # ---- priority: a second and a third job; the third, raised, goes before the second.

@@ -69,6 +69,18 @@ void LeaseScheduler::setLeaseLimit(uint64_t jobId, uint32_t unitLimit) {
     job(jobId).leaseLimit = unitLimit;
 }
 
+void LeaseScheduler::setPaused(uint64_t jobId, bool paused) {
+    job(jobId).paused = paused;
+}
+
+bool LeaseScheduler::paused(uint64_t jobId) const {
+    return job(jobId).paused;
+}
+
+void LeaseScheduler::setPriority(uint64_t jobId, int priority) {
+    job(jobId).priority = priority;
+}
+
 LeaseScheduler::JobLeases LeaseScheduler::jobLeases(uint64_t jobId) const {
     return job(jobId).counts;
 }
@@ -146,7 +158,7 @@ std::optional<LeaseScheduler::Lease> LeaseScheduler::lease(uint64_t workerId) {
     uint64_t bestId = 0;
     Job* best = nullptr;
     for (auto& [id, candidate] : m_jobs) {
-        if (!candidate.running || candidate.pending.empty() ||
+        if (!candidate.running || candidate.paused || candidate.pending.empty() ||
             *candidate.pending.begin() >= candidate.leaseLimit)
             continue;
         if (!best || candidate.priority > best->priority) {

@@ -78,6 +78,10 @@ class LeaseScheduler {
     // `unitLimit` on are neither leased, re-adopted nor merged until it is raised. Every unit
     // of a job may be, until this is called.
     void setLeaseLimit(uint64_t jobId, uint32_t unitLimit);
+    // A paused job gets no new leases; its leases out may still be renewed, merged and failed.
+    void setPaused(uint64_t jobId, bool paused);
+    bool paused(uint64_t jobId) const;
+    void setPriority(uint64_t jobId, int priority);
     JobLeases jobLeases(uint64_t jobId) const;
     const UnitSlot& unit(uint64_t jobId, uint32_t unitIndex) const;
 
@@ -129,6 +133,7 @@ class LeaseScheduler {
         int priority = 0;
         bool running = true;
         uint32_t leaseLimit = UINT32_MAX;
+        bool paused = false;
         farm::JobGrid grid;
         std::vector<UnitSlot> units;
         std::set<uint32_t> pending;

@@ -97,12 +97,17 @@ int main(int argc, char** argv) {
                 std::rename((httpPortFile + ".tmp").c_str(), httpPortFile.c_str());
             }
         }
+        // SIGTERM (docker stop, systemctl stop, a Kubernetes pod's end) drains: the unit in
+        // hand is finished and delivered, then the worker exits 0. A second signal abandons the
+        // unit, hands it back and exits at once.
         std::thread signalThread([&] {
-            for (;;) {
+            for (int received = 1;; ++received) {
                 int signal = 0;
                 sigwait(&signals, &signal);
                 farm::logInfo("worker.signal",
-                              {farm::field("signal", signal), farm::field("action", "draining")});
+                              {farm::field("signal", signal),
+                               farm::field("action", received == 1 ? "draining"
+                                                                   : "handing back and exiting")});
                 worker.requestStop();
             }
         });

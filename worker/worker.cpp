@@ -212,6 +212,8 @@ void Worker::heartbeatLoop() {
         if (m_mustRegister) continue;
         v1::HeartbeatRequest request;
         request.set_worker_id(m_workerId);
+        // So `alphorn workers` shows this worker draining from the moment it was told to stop.
+        request.set_draining(m_stopRequests > 0);
         for (const auto& [lease, unit] : m_activeLeases) {
             request.add_lease_ids(lease);
             *request.add_held_units() = unit;
@@ -347,6 +349,8 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
         header.set_compressed_sha256(farm::sha256Hex(result.compressed));
         const double seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        header.set_rays(counters.rays);
+        header.set_render_seconds(seconds);
         farm::WorkerMetrics::unitRendered(seconds, counters.samples, counters.rays);
         logInfo("unit.rendered", {field("job", job.jobId), field("unit", lease.unit().unit_index()),
                                   field("seconds", seconds)});
@@ -393,8 +397,11 @@ bool Worker::deliver(Result& result) {
         }
         // The call waits for a coordinator that is away (restarting) and goes out the moment it
         // is back; when stopping, no longer than the drain time left.
+        // A second stop request wants the worker gone: one attempt of at most a second.
         auto timeout = m_options.deliverTimeout;
-        if (m_stopRequests > 0)
+        if (m_stopRequests > 1)
+            timeout = std::min(std::chrono::milliseconds(1000), timeout);
+        else if (m_stopRequests > 0)
             timeout = std::clamp(std::chrono::duration_cast<std::chrono::milliseconds>(
                                      giveUpAt - std::chrono::steady_clock::now()),
                                  std::min(std::chrono::milliseconds(1000), timeout), timeout);
@@ -447,7 +454,8 @@ bool Worker::deliver(Result& result) {
             farm::WorkerMetrics::resultDelivered(Delivery::Refused, delivering.seconds());
             return true;
         }
-        if (m_stopRequests > 0 && std::chrono::steady_clock::now() > giveUpAt) {
+        if (m_stopRequests > 1 ||
+            (m_stopRequests > 0 && std::chrono::steady_clock::now() > giveUpAt)) {
             farm::WorkerMetrics::resultDelivered(Delivery::Abandoned, delivering.seconds());
             return false;
         }
@@ -460,10 +468,24 @@ bool Worker::deliver(Result& result) {
     }
 }
 
+void Worker::sayGoodbye() {
+    if (m_mustRegister) return;
+    // The coordinator lists the worker as gone at once instead of after its silence; should
+    // the call fail, that is what happens.
+    v1::HeartbeatRequest request;
+    request.set_worker_id(m_workerId);
+    request.set_draining(true);
+    request.set_exiting(true);
+    v1::HeartbeatResponse response;
+    auto ctx = context(std::chrono::milliseconds(1000));
+    m_stub->Heartbeat(ctx.get(), request, &response);
+}
+
 int Worker::run() {
     registerWithCoordinator();
     m_heartbeat = std::thread([this] { heartbeatLoop(); });
     farm::RetryPolicy retry = makeRetryPolicy();
+    bool drainedByClient = false;
     farm::Stopwatch askingForWork;
     while (m_stopRequests == 0) {
         if (m_mustRegister) {
@@ -502,6 +524,11 @@ int Worker::run() {
         if (retry.failures() > 0)
             logInfo("coordinator.back", {field("failed_attempts", retry.failures())});
         retry.reset();
+        if (lease.draining() != drainedByClient) {
+            drainedByClient = lease.draining();
+            logInfo(drainedByClient ? "worker.drain_requested" : "worker.undrained",
+                    {field("worker", m_workerId.load()), field("by", "client")});
+        }
         if (!lease.has_work()) continue;
         farm::WorkerMetrics::leaseWaited(askingForWork.seconds());
         {
@@ -525,6 +552,14 @@ int Worker::run() {
         m_fencedLeases.erase(lease.lease_id());
         askingForWork = farm::Stopwatch();
     }
+    // No heartbeat may follow the goodbye: it would list the worker alive again.
+    {
+        std::lock_guard lock(m_leaseMutex);
+        m_finished = true;
+    }
+    m_leaseWake.notify_all();
+    if (m_heartbeat.joinable()) m_heartbeat.join();
+    sayGoodbye();
     logInfo("worker.drained", {field("worker", m_workerId.load())});
     return 0;
 }

@@ -131,6 +131,10 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
             }
         });
     for (const ThreadFilm& threadFilm : threadFilms) out.add(threadFilm.block);
+    // Light paths splat onto the whole image: each unit adds the part on its own tile.
+    if (!cancelled)
+        for (size_t i = 0; i < passes; ++i)
+            integrator.addPassSplats(passData[i].get(), tile.x0, tile.y0, tile.x1, tile.y1, out);
     return !cancelled;
 }
 

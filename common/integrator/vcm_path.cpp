@@ -250,8 +250,10 @@ double BidirectionalIntegrator::emissionDirectionPdf(const PathVertex& v,
     return std::max(0.0, double(v.ng.dot(d))) * InvPi;
 }
 
-void BidirectionalIntegrator::connectToCamera(const Scene& scene, const PathVertex* path,
-                                              size_t index, Splats& splats) const {
+void BidirectionalIntegrator::connectToCamera(const Scene& scene,
+                                              const MisStrategies& passStrategies,
+                                              const PathVertex* path, size_t index,
+                                              Splats& splats) const {
     const PathVertex& y = path[index];
     if (!y.connectible()) return;
     if (index == 0 && y.delta) return;  // a point light is never seen by camera rays either
@@ -289,7 +291,7 @@ void BidirectionalIntegrator::connectToCamera(const Scene& scene, const PathVert
                 ? 1.0
                 : toArea(pdfBSDF(y, toCamera, y.toPrevious), y, previous);
     }
-    MisStrategies strategies = m_strategies;
+    MisStrategies strategies = passStrategies;
     strategies.emitterHittable = !path[0].delta;
     const double weight =
         misWeight(mis.data(), mis.size(), strategies, {MisStrategy::Kind::Connection, int(edges)});
@@ -301,7 +303,8 @@ void BidirectionalIntegrator::connectToCamera(const Scene& scene, const PathVert
     splats.emplace_back(projection->raster, value);
 }
 
-void BidirectionalIntegrator::traceLightPath(const Scene& scene, Sampler& sampler, uint64_t,
+void BidirectionalIntegrator::traceLightPath(const Scene& scene, Sampler& sampler,
+                                             const MisStrategies& passStrategies,
                                              std::vector<PathVertex>& out, Splats& splats) const {
     const size_t start = out.size();
     const LightChoice light = chooseLight(sampler.next1D());
@@ -329,7 +332,7 @@ void BidirectionalIntegrator::traceLightPath(const Scene& scene, Sampler& sample
         beta = le * static_cast<float>(double(cosLight) / (y0.pdfForward * directionPdf));
     }
     out.push_back(y0);
-    if (m_strategies.lightTracing) connectToCamera(scene, &out[start], 0, splats);
+    if (m_strategies.lightTracing) connectToCamera(scene, passStrategies, &out[start], 0, splats);
     if (beta.isBlack() || !beta.allFinite() || !(directionPdf > 0.0)) return;
 
     // Light vertex i serves paths of at least i + 1 segments (light tracing).
@@ -346,7 +349,7 @@ void BidirectionalIntegrator::traceLightPath(const Scene& scene, Sampler& sample
         v.pdfForward = previousDelta ? 1.0 : toArea(directionPdf, out.back(), v);
         out.push_back(v);
         if (!v.delta && m_strategies.lightTracing)
-            connectToCamera(scene, &out[start], index, splats);
+            connectToCamera(scene, passStrategies, &out[start], index, splats);
         if (index + 2 > maxEdges) return;
 
         BSDFQueryRecord rec(v.shFrame.toLocal(-dir));
@@ -386,6 +389,11 @@ std::shared_ptr<const PassData> BidirectionalIntegrator::preparePass(const Scene
     auto data = std::make_shared<BidirectionalPassData>();
     const uint64_t count = m_lightPathCount;
     data->lightPathCount = count;
+    if (m_strategies.merging)
+        data->mergeRadius = static_cast<float>(progressiveRadius(m_radius, m_alpha, pass));
+    // Every strategy's weight counts the merges this pass's radius allows.
+    MisStrategies strategies = m_strategies;
+    strategies.mergeArea = mergeArea(data->mergeRadius);
     const size_t chunks = size_t((count + kChunk - 1) / kChunk);
     struct Chunk {
         std::vector<PathVertex> vertices;
@@ -400,7 +408,7 @@ std::shared_ptr<const PassData> BidirectionalIntegrator::preparePass(const Scene
         for (uint64_t i = uint64_t(c) * kChunk; i < end; ++i) {
             sampler->startStream(seed, pass, i, StreamPurpose::Photon);
             const size_t before = chunk.vertices.size();
-            traceLightPath(scene, *sampler, pass, chunk.vertices, chunk.splats);
+            traceLightPath(scene, *sampler, strategies, chunk.vertices, chunk.splats);
             chunk.lengths.push_back(chunk.vertices.size() - before);
         }
     });
@@ -435,7 +443,6 @@ std::shared_ptr<const PassData> BidirectionalIntegrator::preparePass(const Scene
     }
 
     if (m_strategies.merging) {
-        data->mergeRadius = static_cast<float>(progressiveRadius(m_radius, m_alpha, pass));
         for (uint64_t path = 0; path < count; ++path)
             for (uint64_t v = data->lightPathStart[path] + 1; v < data->lightPathStart[path + 1];
                  ++v) {
@@ -488,6 +495,8 @@ Color3f BidirectionalIntegrator::Li(const Scene& scene, Sampler& sampler, const 
     camera.push_back(z0);
 
     const Scene& s = scene;
+    MisStrategies passStrategies = m_strategies;
+    passStrategies.mergeArea = mergeArea(data->mergeRadius);
     Color3f result(0.0f), beta(1.0f);
     float etaScale = 1.0f;
     bool previousDelta = false;
@@ -518,7 +527,7 @@ Color3f BidirectionalIntegrator::Li(const Scene& scene, Sampler& sampler, const 
                 if (j >= 2)
                     mis[1].pdfFromLight =
                         toArea(emissionDirectionPdf(light, -dir), light, camera[j - 1]);
-                MisStrategies strategies = m_strategies;
+                MisStrategies strategies = passStrategies;
                 strategies.emitterHittable = true;
                 const double w = misWeight(mis.data(), mis.size(), strategies,
                                            {MisStrategy::Kind::Connection, 0});
@@ -547,7 +556,7 @@ Color3f BidirectionalIntegrator::Li(const Scene& scene, Sampler& sampler, const 
                     mis[1].pdfFromLight = toArea(emissionDirectionPdf(y0, -d), y0, z);
                     if (j >= 2)
                         mis[2].pdfFromLight = toArea(pdfBSDF(z, d, z.toPrevious), z, camera[j - 1]);
-                    MisStrategies strategies = m_strategies;
+                    MisStrategies strategies = passStrategies;
                     strategies.emitterHittable = !y0.delta;
                     const double w = misWeight(mis.data(), mis.size(), strategies,
                                                {MisStrategy::Kind::Connection, 1});
@@ -584,7 +593,7 @@ Color3f BidirectionalIntegrator::Li(const Scene& scene, Sampler& sampler, const 
                     if (j >= 2)
                         mis[sCount + 1].pdfFromLight =
                             toArea(pdfBSDF(z, d, z.toPrevious), z, camera[j - 1]);
-                    MisStrategies strategies = m_strategies;
+                    MisStrategies strategies = passStrategies;
                     strategies.emitterHittable = !lightPath[0].delta;
                     const double w = misWeight(mis.data(), mis.size(), strategies,
                                                {MisStrategy::Kind::Connection, int(sCount)});
@@ -619,8 +628,7 @@ Color3f BidirectionalIntegrator::Li(const Scene& scene, Sampler& sampler, const 
                     if (j >= 2)
                         mis[m + 1].pdfFromLight =
                             toArea(pdfBSDF(z, y.toPrevious, z.toPrevious), z, camera[j - 1]);
-                    MisStrategies strategies = m_strategies;
-                    strategies.mergeArea = mergeArea(radius);
+                    MisStrategies strategies = passStrategies;
                     strategies.emitterHittable = !path[0].delta;
                     const double w = misWeight(mis.data(), mis.size(), strategies,
                                                {MisStrategy::Kind::Merge, int(m)});

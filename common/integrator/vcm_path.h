@@ -99,11 +99,13 @@ class BidirectionalIntegrator : public Integrator {
     // Solid-angle density of the light path's first direction `d` from light vertex `v`.
     double emissionDirectionPdf(const PathVertex& v, const Vector3f& d) const;
 
-    void traceLightPath(const Scene& scene, Sampler& sampler, uint64_t pass,
+    // `passStrategies`: the strategies with the pass's merge area, for the MIS weights.
+    void traceLightPath(const Scene& scene, Sampler& sampler, const MisStrategies& passStrategies,
                         std::vector<PathVertex>& out,
                         std::vector<std::pair<Point2f, Color3f>>& splats) const;
     // Light tracing of light vertex `index` of the path `path` (vertices path[0..index]).
-    void connectToCamera(const Scene& scene, const PathVertex* path, size_t index,
+    void connectToCamera(const Scene& scene, const MisStrategies& passStrategies,
+                         const PathVertex* path, size_t index,
                          std::vector<std::pair<Point2f, Color3f>>& splats) const;
 
     double mergeArea(float radius) const;

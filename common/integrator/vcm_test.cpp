@@ -260,6 +260,42 @@ TEST_F(VcmTest, VcmAgreesWithThePhotonMapperWhereOnlyMergingReaches) {
     EXPECT_LT(c.mean, 0.95 * a.mean);
 }
 
+// A point light between two large diffuse planes, seen from above: with connections off, every
+// path is estimated by merging alone (a point light is never hit), at whichever of its vertices
+// the weights choose, so the weights among merges at different vertices decide the sum. The
+// irradiance varies slowly on the scale of the merge radius (a relative blur below 10^-3 at the
+// first radius, less as it shrinks), and the image must agree with path_mis. With connections
+// on, the same radius makes merging a large share of the indirect light.
+TEST_F(VcmTest, MergesAtEveryVertexAgreeWithPathMisBetweenTwoPlanes) {
+    const std::string scene = R"(
+        <camera type="perspective"><transform name="toWorld">
+        <lookat origin="0.3,1.8,0.2" target="0,0,0" up="0,1,0"/></transform>
+        <float name="fov" value="20"/><integer name="width" value="8"/>
+        <integer name="height" value="8"/><rfilter type="box"/></camera>
+        <mesh type="obj"><string name="filename" value=")" +
+                              kMeshes + R"(quad.obj"/>
+        <transform name="toWorld"><scale value="20,1,20"/></transform>
+        <bsdf type="diffuse"><color name="albedo" value="0.7"/></bsdf></mesh>
+        <mesh type="obj"><string name="filename" value=")" +
+                              kMeshes + R"(quad.obj"/>
+        <transform name="toWorld"><scale value="20,1,20"/><rotate axis="1,0,0" angle="180"/>
+        <translate value="0,2,0"/></transform>
+        <bsdf type="diffuse"><color name="albedo" value="0.6"/></bsdf></mesh>
+        <emitter type="point"><point name="position" value="0,1,0"/>
+        <color name="power" value="12.566370614359172"/></emitter></scene>)";
+    auto pathMis = loadText("<scene><integrator type=\"path_mis\"/>" + scene);
+    const stats::RunningStats reference = passMeans(*pathMis, 4, 400);
+    for (const char* connections : {"false", "true"}) {
+        auto vcm = loadText(R"(<scene><integrator type="vcm"><integer name="lightPathCount"
+            value="4000"/><float name="radius" value="0.05"/><boolean name="connections"
+            value=")" + std::string(connections) +
+                            "\"/></integrator>" + scene);
+        const stats::RunningStats means = passMeans(*vcm, 3, 200);
+        EXPECT_TRUE(agree(means, reference)) << "connections " << connections;
+        EXPECT_LT(means.standardError(), 0.01 * means.mean) << "a test too weak to tell";
+    }
+}
+
 // --threads 1 and 2 and two tile sizes give the same film bytes, with the default gaussian
 // filter whose splats cross tile borders.
 TEST_F(VcmTest, SameBytesForAnyThreadsAndTiles) {

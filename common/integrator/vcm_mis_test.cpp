@@ -3,8 +3,8 @@
 // sum to one, for every combination of enabled strategies the integrators use; a strategy that
 // cannot produce the path (a connection at a delta surface, a hit of a point light, a disabled
 // family) has weight zero.
-#include "common/core/rng.h"
 #include "common/integrator/vcm_mis.h"
+#include "common/core/rng.h"
 
 #include <gtest/gtest.h>
 
@@ -36,7 +36,9 @@ std::vector<Family> families() {
 }
 
 // Log-uniform densities over eight decades, the range a scene's area densities span.
-double randomDensity(Rng& rng) { return std::pow(10.0, 8.0 * rng.nextFloat() - 4.0); }
+double randomDensity(Rng& rng) {
+    return std::pow(10.0, 8.0 * rng.nextFloat() - 4.0);
+}
 
 TEST(VcmMis, WeightsOfEveryPathSumToOne) {
     Rng rng(11, 0, 0, StreamPurpose::Test);
@@ -81,8 +83,8 @@ TEST(VcmMis, WeightsOfEveryPathSumToOne) {
 
 TEST(VcmMis, ImpossibleStrategiesWeighNothing) {
     // x_0 light, x_1 mirror, x_2 diffuse, x_3 camera.
-    std::vector<MisVertex> path = {{0.5, 2.0, true}, {1.0, 1.0, false}, {3.0, 0.7, true},
-                                   {1.0, 1.0, true}};
+    std::vector<MisVertex> path = {
+        {0.5, 2.0, true}, {1.0, 1.0, false}, {3.0, 0.7, true}, {1.0, 1.0, true}};
     MisStrategies vcm;
     vcm.merging = true;
     vcm.mergeArea = 0.01;
@@ -98,8 +100,8 @@ TEST(VcmMis, ImpossibleStrategiesWeighNothing) {
     // Light tracing from x_2 and merging at x_2 are what remains (a caustic seen directly).
     EXPECT_GT(weight(MisStrategy::Kind::Connection, 3), 0.0);
     EXPECT_GT(weight(MisStrategy::Kind::Merge, 2), 0.0);
-    EXPECT_NEAR(weight(MisStrategy::Kind::Connection, 3) + weight(MisStrategy::Kind::Merge, 2),
-                1.0, 1e-12);
+    EXPECT_NEAR(weight(MisStrategy::Kind::Connection, 3) + weight(MisStrategy::Kind::Merge, 2), 1.0,
+                1e-12);
     // The balance heuristic: light tracing's density is N p_L(x_0) p_L(x_1) p_L(x_2), merging's
     // N pi r^2 p_L(x_0) p_L(x_1) p_L(x_2) p_C(x_2).
     EXPECT_NEAR(weight(MisStrategy::Kind::Connection, 3), 1.0 / (1.0 + 0.01 * 0.7), 1e-12);

@@ -48,8 +48,7 @@ double toArea(double pdfSolidAngle, const PathVertex& from, const PathVertex& to
     return pdfSolidAngle * cosine / dist2;
 }
 
-PathVertex surfaceVertex(const Intersection& its, const Vector3f& toPrevious,
-                         const Color3f& beta) {
+PathVertex surfaceVertex(const Intersection& its, const Vector3f& toPrevious, const Color3f& beta) {
     PathVertex v;
     v.p = its.p;
     v.shFrame = its.shFrame;
@@ -114,9 +113,10 @@ BidirectionalIntegrator::BidirectionalIntegrator(const PropertyList& props, Kind
         m_radiusGiven = props.has("radius");
         m_radius = props.getFloat("radius", 0.0f);
         if (m_radiusGiven && !(m_radius > 0.0f && std::isfinite(m_radius)))
-            props.fail("\"radius\" (the first pass's merge radius) must be positive and finite, "
-                       "got %g",
-                       m_radius);
+            props.fail(
+                "\"radius\" (the first pass's merge radius) must be positive and finite, "
+                "got %g",
+                m_radius);
         const float alpha = props.getFloat("alpha", 0.75f);
         if (!isValidRadiusAlpha(alpha))
             props.fail("\"alpha\" must be in (0, 1) (the radius schedule's parameter), got %g",
@@ -141,14 +141,16 @@ BidirectionalIntegrator::BidirectionalIntegrator(const PropertyList& props, Kind
 void BidirectionalIntegrator::preprocess(const Scene& scene) {
     const char* name = m_kind == Kind::Vcm ? "vcm" : "bdpt";
     if (scene.camera()->medium())
-        fail("%s renders surfaces only, and the camera sits in a medium: use volume_path_mis or "
-             "volumetric_photonmapper for scenes with participating media",
-             name);
+        fail(
+            "%s renders surfaces only, and the camera sits in a medium: use volume_path_mis or "
+            "volumetric_photonmapper for scenes with participating media",
+            name);
     for (const auto& mesh : scene.meshes())
         if (mesh->hasMediumInterface())
-            fail("%s renders surfaces only, and %s bounds a medium: use volume_path_mis or "
-                 "volumetric_photonmapper for scenes with participating media",
-                 name, mesh->source());
+            fail(
+                "%s renders surfaces only, and %s bounds a medium: use volume_path_mis or "
+                "volumetric_photonmapper for scenes with participating media",
+                name, mesh->source());
     if (m_strategies.lightTracing) {
         const std::string refusal = scene.camera()->lightTracingRefusal();
         if (!refusal.empty()) fail("%s traces light to the camera, but %s", name, refusal);
@@ -237,8 +239,7 @@ Color3f BidirectionalIntegrator::emission(const PathVertex& v, const Vector3f& d
     return v.emitter->eval(rec);
 }
 
-double BidirectionalIntegrator::emissionDirectionPdf(const PathVertex& v,
-                                                     const Vector3f& d) const {
+double BidirectionalIntegrator::emissionDirectionPdf(const PathVertex& v, const Vector3f& d) const {
     if (const auto* point = dynamic_cast<const DeltaPositionLight*>(v.emitter)) {
         // Point-like lights emit their photons by their own sampling; the MIS weights use the
         // intensity's share of the power, which is that sampling's density for point and spot
@@ -298,8 +299,8 @@ void BidirectionalIntegrator::connectToCamera(const Scene& scene,
     if (!(weight > 0.0)) return;
 
     if (scene.rayOccluded(Ray3f(y.p, toCamera, Epsilon, dist * (1.0f - 1e-4f)))) return;
-    const Color3f value = y.beta * f *
-                          static_cast<float>(cameraPdf * weight / double(m_lightPathCount));
+    const Color3f value =
+        y.beta * f * static_cast<float>(cameraPdf * weight / double(m_lightPathCount));
     splats.emplace_back(projection->raster, value);
 }
 
@@ -522,8 +523,8 @@ Color3f BidirectionalIntegrator::Li(const Scene& scene, Sampler& sampler, const 
                 light.p = z.p;
                 light.ng = z.ng;
                 light.emitter = its.mesh->emitter();
-                mis[0].pdfFromLight = double(lightSelectionPdf(light.emitter)) /
-                                      double(its.mesh->surfaceArea());
+                mis[0].pdfFromLight =
+                    double(lightSelectionPdf(light.emitter)) / double(its.mesh->surfaceArea());
                 if (j >= 2)
                     mis[1].pdfFromLight =
                         toArea(emissionDirectionPdf(light, -dir), light, camera[j - 1]);
@@ -680,11 +681,10 @@ std::string BidirectionalIntegrator::toString() const {
         strategies = "connections";
     else
         strategies = "merging";
-    return absl::StrFormat("%s (%s, %u light paths per pass%s)",
-                           m_kind == Kind::Vcm ? "vcm" : "bdpt", strategies, m_lightPathCount,
-                           m_strategies.merging
-                               ? absl::StrFormat(", radius %g, alpha %g", m_radius, m_alpha)
-                               : "");
+    return absl::StrFormat(
+        "%s (%s, %u light paths per pass%s)", m_kind == Kind::Vcm ? "vcm" : "bdpt", strategies,
+        m_lightPathCount,
+        m_strategies.merging ? absl::StrFormat(", radius %g, alpha %g", m_radius, m_alpha) : "");
 }
 
 }  // namespace alphorn

@@ -35,11 +35,11 @@ class Emitter;
 // A vertex of a light or camera subpath.
 struct PathVertex {
     Point3f p = Point3f::Zero();
-    Frame shFrame;                     // shading frame (surfaces, area lights)
-    Normal3f ng = Normal3f::Zero();    // geometric normal; zero at a point light or the camera
+    Frame shFrame;                   // shading frame (surfaces, area lights)
+    Normal3f ng = Normal3f::Zero();  // geometric normal; zero at a point light or the camera
     Point2f uv = Point2f::Zero();
-    const BSDF* bsdf = nullptr;        // null on an emitter (light vertex 0) and the camera
-    const Emitter* emitter = nullptr;  // light vertex 0 only
+    const BSDF* bsdf = nullptr;              // null on an emitter (light vertex 0) and the camera
+    const Emitter* emitter = nullptr;        // light vertex 0 only
     Vector3f toPrevious = Vector3f::Zero();  // unit world direction to the previous vertex
     // Light vertex 0: 1 / (selection pdf * position pdf); the emission is evaluated per
     // connection. Others: the subpath's weight arriving here (emission included for light
@@ -57,11 +57,11 @@ struct BidirectionalPassData : PassData {
     std::vector<PathVertex> lightVertices;  // all light subpaths of the pass, in path order
     std::vector<uint64_t> lightPathStart;   // path i holds vertices [start[i], start[i + 1])
     float mergeRadius = 0.0f;
-    std::vector<Photon> mergePoints;      // non-delta light vertices 1.., positions only
-    std::vector<uint32_t> mergeVertex;    // index into lightVertices of each merge point
-    std::vector<uint32_t> mergeDepth;     // its index in its light subpath
+    std::vector<Photon> mergePoints;    // non-delta light vertices 1.., positions only
+    std::vector<uint32_t> mergeVertex;  // index into lightVertices of each merge point
+    std::vector<uint32_t> mergeDepth;   // its index in its light subpath
     PhotonHashGrid mergeGrid;
-    FilmBlock lightImage;                  // light tracing's exact sums over the whole image
+    FilmBlock lightImage;                 // light tracing's exact sums over the whole image
     std::vector<Vector2i> invalidSplats;  // pixels of rejected light-tracing values
 };
 
@@ -111,8 +111,8 @@ class BidirectionalIntegrator : public Integrator {
     double mergeArea(float radius) const;
 
     Kind m_kind;
-    int m_maxDepth;              // bounces, -1 unlimited
-    int m_lightPathCountGiven;   // 0: the pixel count
+    int m_maxDepth;             // bounces, -1 unlimited
+    int m_lightPathCountGiven;  // 0: the pixel count
     uint64_t m_lightPathCount = 1;
     float m_radius = 0.0f;
     bool m_radiusGiven = false;

@@ -116,13 +116,14 @@ stats::RunningStats passMeans(const Scene& scene, uint64_t seed, uint32_t passes
 ::testing::AssertionResult agree(const stats::RunningStats& a, const stats::RunningStats& b) {
     const double va = a.variance() / double(a.count), vb = b.variance() / double(b.count);
     const double t = (a.mean - b.mean) / std::sqrt(va + vb);
-    const double dof = (va + vb) * (va + vb) /
-                       (va * va / double(a.count - 1) + vb * vb / double(b.count - 1));
+    const double dof =
+        (va + vb) * (va + vb) / (va * va / double(a.count - 1) + vb * vb / double(b.count - 1));
     const double p = stats::studentTTwoSidedPValue(t, dof);
     std::ostringstream message;
     message << "means " << a.mean << " +- " << std::sqrt(va) << " and " << b.mean << " +- "
             << std::sqrt(vb) << ": t = " << t << ", p = " << p;
-    if (std::isfinite(p) && p > kSignificance) return ::testing::AssertionSuccess() << message.str();
+    if (std::isfinite(p) && p > kSignificance)
+        return ::testing::AssertionSuccess() << message.str();
     return ::testing::AssertionFailure() << message.str();
 }
 
@@ -204,8 +205,7 @@ TEST_F(VcmTest, BdptAgreesWithPathMisOnCornellBoxes) {
         const bool spheres = extra.empty();
         auto bdpt = loadText(cornellBox("<integrator type=\"bdpt\"/>", 16, spheres, extra));
         const stats::RunningStats a = passMeans(*bdpt, 3, 300);
-        auto pathMis =
-            loadText(cornellBox("<integrator type=\"path_mis\"/>", 16, spheres, extra));
+        auto pathMis = loadText(cornellBox("<integrator type=\"path_mis\"/>", 16, spheres, extra));
         const stats::RunningStats b = passMeans(*pathMis, 4, 600);
         EXPECT_TRUE(agree(a, b)) << (extra.empty() ? "area light" : "delta lights");
         EXPECT_LT(a.standardError(), 0.01 * a.mean) << "a test too weak to tell";
@@ -244,12 +244,14 @@ TEST_F(VcmTest, VcmAgreesWithThePhotonMapperWhereOnlyMergingReaches) {
         <color name="power" value="12.566370614359172"/></emitter></scene>)";
     auto vcm = loadText(R"(<scene><integrator type="vcm"><integer name="lightPathCount"
         value="20000"/><float name="radius" value="0.08"/><float name="alpha" value="0.75"/>
-        </integrator>)" + scene);
+        </integrator>)" +
+                        scene);
     const stats::RunningStats a = passMeans(*vcm, 3, 150);
     auto ppm = loadText(R"(<scene><integrator type="photonmapper"><integer name="photonCount"
         value="20000"/><float name="surfacePhotonRadius" value="0.08"/>
         <float name="alpha" value="0.75"/><boolean name="progressive" value="true"/>
-        </integrator>)" + scene);
+        </integrator>)" +
+                        scene);
     const stats::RunningStats b = passMeans(*ppm, 4, 150);
     EXPECT_TRUE(agree(a, b));
     // The mirrored light is a tenth of the total (1/9 against 1): bdpt, which cannot reach it,
@@ -334,14 +336,15 @@ TEST_F(VcmTest, RefusesWhatItCannotRender) {
         <emitter type="point"><color name="power" value="1"/></emitter></scene>)";
     // Without light tracing (merging only), a lens is fine.
     EXPECT_NO_THROW(loadText(R"(<scene><integrator type="vcm"><boolean name="connections"
-        value="false"/></integrator>)" + lens));
+        value="false"/></integrator>)" +
+                             lens));
     for (const char* params :
          {R"(<integer name="lightPathCount" value="0"/>)", R"(<float name="radius" value="-1"/>)",
           R"(<float name="alpha" value="1"/>)", R"(<integer name="maxDepth" value="-2"/>)",
           R"(<boolean name="connections" value="false"/><boolean name="merging" value="false"/>)"})
-        expectError(std::string("<scene><integrator type=\"vcm\">") + params + "</integrator>" +
-                        plain,
-                    "scene.xml:1:");
+        expectError(
+            std::string("<scene><integrator type=\"vcm\">") + params + "</integrator>" + plain,
+            "scene.xml:1:");
 }
 
 }  // namespace

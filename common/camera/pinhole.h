@@ -79,8 +79,8 @@ class PinholeProjection {
         const Point3f local = m_worldToCamera.applyPoint(world);
         if (!(local.z() >= m_nearClip && local.z() <= m_farClip)) return std::nullopt;
         const float x = local.x() / local.z(), y = local.y() / local.z();
-        // direction() maps image u in [0, 1] to x = (1 - 2u) / cot, v to y = (1 - 2v) / (aspect
-        // cot).
+        // direction() maps image u in [0, 1] to x = (1 - 2u) / cot and v in [0, 1] to
+        // y = (1 - 2v) / (aspect cot).
         const float u = 0.5f * (1.0f - m_cot * x);
         const float v = 0.5f * (1.0f - m_aspect * m_cot * y);
         if (!(u >= 0.0f && u <= 1.0f && v >= 0.0f && v <= 1.0f)) return std::nullopt;

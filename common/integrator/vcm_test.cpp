@@ -85,6 +85,10 @@ class VcmTest : public ::testing::Test {
     std::filesystem::path m_dir;
 };
 
+// The statistical tests: seconds in the release tree, minutes under the sanitizers, whose run
+// (tools/run-tests.sh) leaves them out; the other tests of this file run the same code there.
+class VcmConvergence : public VcmTest {};
+
 // The mean luminance over the image of each of `passes` passes, each rendered alone as one unit
 // over the whole image.
 stats::RunningStats passMeans(const Scene& scene, uint64_t seed, uint32_t passes) {
@@ -140,7 +144,7 @@ std::string furnace(const std::string& integrator) {
            </mesh></scene>)";
 }
 
-TEST_F(VcmTest, DiffuseFurnace) {
+TEST_F(VcmConvergence, DiffuseFurnace) {
     for (const char* integrator :
          {R"(<integrator type="bdpt"/>)", R"(<integrator type="vcm"/>)",
           R"(<integrator type="vcm"><boolean name="connections" value="false"/></integrator>)"}) {
@@ -154,7 +158,7 @@ TEST_F(VcmTest, DiffuseFurnace) {
 // by light tracing alone: each pixel's mean radiance is (0.5 / pi) cos / r^2 averaged over the
 // floor it sees, computed here by midpoint quadrature over the image through the camera's own
 // rays (independent of any integrator).
-TEST_F(VcmTest, LightTracingReproducesADirectlyLitPlane) {
+TEST_F(VcmConvergence, LightTracingReproducesADirectlyLitPlane) {
     const std::string camera = R"(<camera type="perspective"><transform name="toWorld">
         <lookat origin="0.3,3,0.2" target="0,0,0" up="0,0,1"/></transform>
         <float name="fov" value="50"/><integer name="width" value="16"/>
@@ -194,7 +198,7 @@ TEST_F(VcmTest, LightTracingReproducesADirectlyLitPlane) {
 // a point light added, against path_mis: two estimators of the same image. (With the spheres,
 // path_mis cannot see the caustics of the point-like lights: no strategy of a path tracer joins
 // a delta light through glass.)
-TEST_F(VcmTest, BdptAgreesWithPathMisOnCornellBoxes) {
+TEST_F(VcmConvergence, BdptAgreesWithPathMisOnCornellBoxes) {
     const std::string deltaLights =
         R"(<emitter type="point"><point name="position" value="0.5,1.5,0.4"/>
            <color name="power" value="2,2,2"/></emitter>
@@ -213,7 +217,7 @@ TEST_F(VcmTest, BdptAgreesWithPathMisOnCornellBoxes) {
 }
 
 // Without caustics, where path_mis converges quickly, vcm converges to the same image.
-TEST_F(VcmTest, VcmAgreesWithPathMisWithoutCaustics) {
+TEST_F(VcmConvergence, VcmAgreesWithPathMisWithoutCaustics) {
     auto vcm = loadText(cornellBox("<integrator type=\"vcm\"/>", 16, false));
     const stats::RunningStats a = passMeans(*vcm, 3, 300);
     auto pathMis = loadText(cornellBox("<integrator type=\"path_mis\"/>", 16, false));
@@ -226,7 +230,7 @@ TEST_F(VcmTest, VcmAgreesWithPathMisWithoutCaustics) {
 // (light, mirror, floor, mirror, camera) is reachable by merging alone: no connection can join a
 // point light or the camera through a mirror. vcm must agree with the progressive photon mapper
 // (the same radius schedule), which gathers that light from photons.
-TEST_F(VcmTest, VcmAgreesWithThePhotonMapperWhereOnlyMergingReaches) {
+TEST_F(VcmConvergence, VcmAgreesWithThePhotonMapperWhereOnlyMergingReaches) {
     const std::string scene = R"(
         <camera type="perspective"><transform name="toWorld">
         <lookat origin="0,1.2,0.4" target="0,2,0.2857" up="0,1,0"/></transform>
@@ -268,7 +272,7 @@ TEST_F(VcmTest, VcmAgreesWithThePhotonMapperWhereOnlyMergingReaches) {
 // irradiance varies slowly on the scale of the merge radius (a relative blur below 10^-3 at the
 // first radius, less as it shrinks), and the image must agree with path_mis. With connections
 // on, the same radius makes merging a large share of the indirect light.
-TEST_F(VcmTest, MergesAtEveryVertexAgreeWithPathMisBetweenTwoPlanes) {
+TEST_F(VcmConvergence, MergesAtEveryVertexAgreeWithPathMisBetweenTwoPlanes) {
     const std::string scene = R"(
         <camera type="perspective"><transform name="toWorld">
         <lookat origin="0.3,1.8,0.2" target="0,0,0" up="0,1,0"/></transform>

@@ -610,26 +610,34 @@ Color3f BidirectionalIntegrator::Li(const Scene& scene, Sampler& sampler, const 
                 const float radius = data->mergeRadius;
                 const double normalisation = 1.0 / (double(count) * mergeArea(radius));
                 Color3f merged(0.0f);
+                // One query record for z, its camera-side direction in the local frame once;
+                // each light vertex adds only its own direction.
+                BSDFQueryRecord rec(z.shFrame.toLocal(z.toPrevious), Vector3f::Zero(),
+                                    Measure::SolidAngle);
+                rec.uv = z.uv;
+                rec.p = z.p;
+                MisStrategies strategies = passStrategies;
                 data->mergeGrid.forEachWithin(z.p, radius, [&](uint32_t index, float) {
                     const size_t m = data->mergeDepth[index];
                     if (m + j > maxEdges) return;
-                    const uint32_t vertexIndex = data->mergeVertex[index];
-                    const PathVertex& y = data->lightVertices[vertexIndex];
-                    const Color3f f = evalBSDF(z, z.toPrevious, y.toPrevious);
+                    const PathVertex& y = data->lightVertices[data->mergeVertex[index]];
+                    rec.wo = z.shFrame.toLocal(y.toPrevious);
+                    const Color3f f = z.bsdf->eval(rec);
                     if (f.isBlack()) return;
                     const PathVertex* path = &y - m;
                     misPath(path, m, camera.data(), j + 1, mis);
                     // x_m is z (the camera's vertex), reached by the light path as y.
                     mis[m].pdfFromLight = y.pdfForward;
                     const PathVertex& yPrevious = path[m - 1];
-                    mis[m - 1].pdfFromCamera =
-                        (m - 1 == 0 && yPrevious.delta)
-                            ? 1.0
-                            : toArea(pdfBSDF(z, z.toPrevious, y.toPrevious), z, yPrevious);
-                    if (j >= 2)
-                        mis[m + 1].pdfFromLight =
-                            toArea(pdfBSDF(z, y.toPrevious, z.toPrevious), z, camera[j - 1]);
-                    MisStrategies strategies = passStrategies;
+                    mis[m - 1].pdfFromCamera = (m - 1 == 0 && yPrevious.delta)
+                                                   ? 1.0
+                                                   : toArea(z.bsdf->pdf(rec), z, yPrevious);
+                    if (j >= 2) {
+                        BSDFQueryRecord reverse(rec.wo, rec.wi, Measure::SolidAngle);
+                        reverse.uv = z.uv;
+                        reverse.p = z.p;
+                        mis[m + 1].pdfFromLight = toArea(z.bsdf->pdf(reverse), z, camera[j - 1]);
+                    }
                     strategies.emitterHittable = !path[0].delta;
                     const double w = misWeight(mis.data(), mis.size(), strategies,
                                                {MisStrategy::Kind::Merge, int(m)});

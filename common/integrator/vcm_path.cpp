@@ -346,7 +346,13 @@ void BidirectionalIntegrator::traceLightPath(const Scene& scene, Sampler& sample
         Intersection its;
         if (!scene.rayIntersect(ray, its)) return;
         const Vector3f dir = ray.d.normalized();
-        PathVertex v = surfaceVertex(its, -dir, beta);
+        // Flux arrives through the geometric surface, radiance is scattered about the shading
+        // normal: the ratio of the two cosines of the arrival (1 on flat-shaded meshes) turns
+        // the one into the other, as path tracing's BSDF weights (Veach's adjoint BSDF).
+        const float cosGeometric = std::abs(its.geoFrame.n.dot(dir));
+        const float arrival =
+            cosGeometric > 0.0f ? std::abs(its.shFrame.n.dot(dir)) / cosGeometric : 0.0f;
+        PathVertex v = surfaceVertex(its, -dir, beta * arrival);
         v.pdfForward = previousDelta ? 1.0 : toArea(directionPdf, out.back(), v);
         out.push_back(v);
         if (!v.delta && m_strategies.lightTracing)
@@ -363,6 +369,11 @@ void BidirectionalIntegrator::traceLightPath(const Scene& scene, Sampler& sample
         weight *= rec.eta * rec.eta;
         const bool discrete = rec.measure == Measure::Discrete;
         const Vector3f next = its.toWorld(rec.wo).normalized();
+        // The next segment leaves through the geometric surface (its area density uses that
+        // cosine), the sampling weight holds the shading one.
+        const float cosShadingNext = std::abs(Frame::cosTheta(rec.wo));
+        if (!(cosShadingNext > 0.0f)) return;
+        const float leaving = std::abs(its.geoFrame.n.dot(next)) / cosShadingNext;
         PathVertex& current = out.back();
         PathVertex& previous = out[out.size() - 2];
         if (discrete || (index == 1 && previous.delta))
@@ -373,7 +384,7 @@ void BidirectionalIntegrator::traceLightPath(const Scene& scene, Sampler& sample
         if (!discrete && !(directionPdf > 0.0)) return;
         previousDelta = discrete;
         throughput *= weight;
-        beta *= weight;
+        beta = current.beta * weight * leaving;
         if (index >= 3) {
             const float q = std::min(throughput.maxCoeff(), 0.99f);
             if (!(sampler.next1D() < q)) return;
@@ -600,8 +611,9 @@ Color3f BidirectionalIntegrator::Li(const Scene& scene, Sampler& sampler, const 
                                                {MisStrategy::Kind::Connection, int(sCount)});
                     if (!(w > 0.0)) continue;
                     if (s.rayOccluded(Ray3f(z.p, d, Epsilon, dist * (1.0f - 1e-4f)))) continue;
-                    const float g =
-                        std::abs(z.shFrame.n.dot(d)) * std::abs(y.shFrame.n.dot(d)) / dist2;
+                    // The shading cosine at z (its BSDF's), the geometric one at y (y.beta
+                    // holds the arrival's ratio).
+                    const float g = std::abs(z.shFrame.n.dot(d)) * std::abs(y.ng.dot(d)) / dist2;
                     result += beta * fz * fy * y.beta * (g * static_cast<float>(w));
                 }
 

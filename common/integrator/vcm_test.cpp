@@ -194,10 +194,10 @@ TEST_F(VcmConvergence, LightTracingReproducesADirectlyLitPlane) {
     EXPECT_TRUE(agreesWith(passMeans(*all, 9, 100), reference));
 }
 
-// The Cornell box with its mirror and glass spheres, and without them but with a spotlight and
-// a point light added, against path_mis: two estimators of the same image. (With the spheres,
-// path_mis cannot see the caustics of the point-like lights: no strategy of a path tracer joins
-// a delta light through glass.)
+// The Cornell box with its mirror and glass spheres, without them but with a spotlight and a
+// point light added, and with diffuse spheres, against path_mis: two estimators of the same
+// image. (With the mirror and glass spheres, path_mis cannot see the caustics of the point-like
+// lights: no strategy of a path tracer joins a delta light through glass.)
 TEST_F(VcmConvergence, BdptAgreesWithPathMisOnCornellBoxes) {
     const std::string deltaLights =
         R"(<emitter type="point"><point name="position" value="0.5,1.5,0.4"/>
@@ -205,13 +205,31 @@ TEST_F(VcmConvergence, BdptAgreesWithPathMisOnCornellBoxes) {
            <emitter type="spotlight"><color name="power" value="3,3,3"/>
            <transform name="toWorld"><lookat origin="-0.6,1.8,0.5" target="-0.4,0,-0.3"
            up="0,1,0"/></transform></emitter>)";
-    for (const std::string& extra : {std::string(), deltaLights}) {
-        const bool spheres = extra.empty();
-        auto bdpt = loadText(cornellBox("<integrator type=\"bdpt\"/>", 16, spheres, extra));
+    // The spheres' meshes have interpolated normals: diffuse, they check the shading-normal
+    // correction of light paths (flat walls alone would not).
+    auto diffuseSpheres = [](std::string scene) {
+        scene = replaceAll(scene, "<bsdf type=\"mirror\"/>",
+                           "<bsdf type=\"diffuse\"><color name=\"albedo\" value=\"0.8\"/></bsdf>");
+        return replaceAll(scene, "<bsdf type=\"dielectric\"/>",
+                          "<bsdf type=\"diffuse\"><color name=\"albedo\" value=\"0.6\"/></bsdf>");
+    };
+    struct Case {
+        const char* name;
+        std::string bdpt, pathMis;
+    };
+    const Case cases[] = {
+        {"area light, mirror and glass spheres", cornellBox("<integrator type=\"bdpt\"/>", 16),
+         cornellBox("<integrator type=\"path_mis\"/>", 16)},
+        {"delta lights", cornellBox("<integrator type=\"bdpt\"/>", 16, false, deltaLights),
+         cornellBox("<integrator type=\"path_mis\"/>", 16, false, deltaLights)},
+        {"diffuse smooth spheres", diffuseSpheres(cornellBox("<integrator type=\"bdpt\"/>", 16)),
+         diffuseSpheres(cornellBox("<integrator type=\"path_mis\"/>", 16))}};
+    for (const Case& c : cases) {
+        auto bdpt = loadText(c.bdpt);
         const stats::RunningStats a = passMeans(*bdpt, 3, 300);
-        auto pathMis = loadText(cornellBox("<integrator type=\"path_mis\"/>", 16, spheres, extra));
+        auto pathMis = loadText(c.pathMis);
         const stats::RunningStats b = passMeans(*pathMis, 4, 600);
-        EXPECT_TRUE(agree(a, b)) << (extra.empty() ? "area light" : "delta lights");
+        EXPECT_TRUE(agree(a, b)) << c.name;
         EXPECT_LT(a.standardError(), 0.01 * a.mean) << "a test too weak to tell";
     }
 }

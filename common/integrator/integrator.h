@@ -50,6 +50,9 @@ class Integrator : public Object {
     // added exactly once whatever the tiling. `out` holds at least those pixels.
     virtual void addPassSplats(const PassData* /*pass*/, int /*x0*/, int /*y0*/, int /*x1*/,
                                int /*y1*/, FilmBlock& /*out*/) const {}
+    // Whether addPassSplats() adds anything: then Li() alone is not the integrator's estimate,
+    // and whatever samples Li() by itself (the t-test's scene mode) must refuse it.
+    virtual bool hasPassSplats() const { return false; }
 };
 
 }  // namespace alphorn

@@ -77,6 +77,7 @@ class BidirectionalIntegrator : public Integrator {
                const PassData* pass) const override;
     void addPassSplats(const PassData* pass, int x0, int y0, int x1, int y1,
                        FilmBlock& out) const override;
+    bool hasPassSplats() const override { return m_strategies.lightTracing; }
     std::string toString() const override;
 
     const MisStrategies& strategies() const { return m_strategies; }

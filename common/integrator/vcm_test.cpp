@@ -194,17 +194,22 @@ TEST_F(VcmConvergence, LightTracingReproducesADirectlyLitPlane) {
     EXPECT_TRUE(agreesWith(passMeans(*all, 9, 100), reference));
 }
 
-// The Cornell box with its mirror and glass spheres, without them but with a spotlight and a
-// point light added, and with diffuse spheres, against path_mis: two estimators of the same
-// image. (With the mirror and glass spheres, path_mis cannot see the caustics of the point-like
-// lights: no strategy of a path tracer joins a delta light through glass.)
+// The Cornell box with its mirror and glass spheres, without them but with a spotlight, a
+// projector and a point light added, and with diffuse spheres, against path_mis: two estimators of
+// the same image. (With the mirror and glass spheres, path_mis cannot see the caustics of the
+// point-like lights: no strategy of a path tracer joins a delta light through glass.)
 TEST_F(VcmConvergence, BdptAgreesWithPathMisOnCornellBoxes) {
     const std::string deltaLights =
         R"(<emitter type="point"><point name="position" value="0.5,1.5,0.4"/>
            <color name="power" value="2,2,2"/></emitter>
            <emitter type="spotlight"><color name="power" value="3,3,3"/>
            <transform name="toWorld"><lookat origin="-0.6,1.8,0.5" target="-0.4,0,-0.3"
-           up="0,1,0"/></transform></emitter>)";
+           up="0,1,0"/></transform></emitter>
+           <emitter type="projector"><color name="power" value="2,1,1"/>
+           <float name="fov" value="40"/>
+           <transform name="toWorld"><lookat origin="0.7,1.7,0.8" target="-0.2,0.3,-0.8"
+           up="0,1,0"/></transform>
+           <texture type="checkerboard2d"/></emitter>)";
     // The spheres' meshes have interpolated normals, where light paths take the shading-normal
     // correction. On this finely tessellated sphere the correction is too small for this test to
     // see (it passes without it too); the case checks that light paths over smooth meshes agree.
@@ -368,6 +373,22 @@ TEST_F(VcmTest, RefusesWhatItCannotRender) {
         expectError(
             std::string("<scene><integrator type=\"vcm\">") + params + "</integrator>" + plain,
             "scene.xml:1:");
+}
+
+// The t-test's scene mode samples Li() alone, which never sees light tracing: a file testing
+// bdpt that way is refused, not answered with a biased mean.
+TEST_F(VcmTest, TheRayTTestRefusesLightTracing) {
+    const std::filesystem::path path = m_dir / "test.xml";
+    std::ofstream(path) << R"(<test type="ttest"><string name="references" value="1"/>
+        <scene><integrator type="bdpt"/><camera type="perspective"><integer name="width"
+        value="4"/><integer name="height" value="4"/></camera>
+        <emitter type="point"><color name="power" value="1"/></emitter></scene></test>)";
+    try {
+        parseSceneFile(path.string());
+        ADD_FAILURE() << "no error";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("splats light paths"), std::string::npos) << e.what();
+    }
 }
 
 }  // namespace

@@ -229,7 +229,15 @@ TEST_F(VcmConvergence, BdptAgreesWithPathMisOnCornellBoxes) {
         {"delta lights", cornellBox("<integrator type=\"bdpt\"/>", 16, false, deltaLights),
          cornellBox("<integrator type=\"path_mis\"/>", 16, false, deltaLights)},
         {"diffuse smooth spheres", diffuseSpheres(cornellBox("<integrator type=\"bdpt\"/>", 16)),
-         diffuseSpheres(cornellBox("<integrator type=\"path_mis\"/>", 16))}};
+         diffuseSpheres(cornellBox("<integrator type=\"path_mis\"/>", 16))},
+        // maxDepth cuts every strategy at the same path length as path_mis.
+        {"maxDepth 2",
+         cornellBox(R"(<integrator type="bdpt"><integer name="maxDepth" value="2"/>
+             </integrator>)",
+                    16, false),
+         cornellBox(R"(<integrator type="path_mis"><integer name="maxDepth" value="2"/>
+             </integrator>)",
+                    16, false)}};
     for (const Case& c : cases) {
         auto bdpt = loadText(c.bdpt);
         const stats::RunningStats a = passMeans(*bdpt, 3, 300);
@@ -240,13 +248,18 @@ TEST_F(VcmConvergence, BdptAgreesWithPathMisOnCornellBoxes) {
     }
 }
 
-// Without caustics, where path_mis converges quickly, vcm converges to the same image.
+// Without caustics, where path_mis converges quickly, vcm converges to the same image, also with
+// the paths cut at the same maxDepth.
 TEST_F(VcmConvergence, VcmAgreesWithPathMisWithoutCaustics) {
-    auto vcm = loadText(cornellBox("<integrator type=\"vcm\"/>", 16, false));
-    const stats::RunningStats a = passMeans(*vcm, 3, 300);
-    auto pathMis = loadText(cornellBox("<integrator type=\"path_mis\"/>", 16, false));
-    const stats::RunningStats b = passMeans(*pathMis, 4, 600);
-    EXPECT_TRUE(agree(a, b));
+    for (const std::string depth : {"", "<integer name=\"maxDepth\" value=\"1\"/>"}) {
+        auto vcm =
+            loadText(cornellBox("<integrator type=\"vcm\">" + depth + "</integrator>", 16, false));
+        const stats::RunningStats a = passMeans(*vcm, 3, 300);
+        auto pathMis = loadText(
+            cornellBox("<integrator type=\"path_mis\">" + depth + "</integrator>", 16, false));
+        const stats::RunningStats b = passMeans(*pathMis, 4, 600);
+        EXPECT_TRUE(agree(a, b)) << depth;
+    }
 }
 
 // Specular-diffuse-specular: the camera sees the floor under a point light only in a mirror

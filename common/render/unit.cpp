@@ -140,6 +140,18 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
     for (const ThreadFilm& threadFilm : threadFilms)
         for (int parity = 0; parity < 2; ++parity)
             out.addPassesOfParity(threadFilm.passesOfParity[parity], parity == 1);
+    // Light paths splat onto the whole image (bidirectional integrators): each unit adds the
+    // part on its own tile, into the half of each pass's parity.
+    if (!cancelled && integrator.hasPassSplats()) {
+        FilmBlock splats[2] = {
+            FilmBlock(out.x0(), out.y0(), out.width(), out.height(), PassHalves::None),
+            FilmBlock(out.x0(), out.y0(), out.width(), out.height(), PassHalves::None)};
+        for (size_t i = 0; i < passes; ++i)
+            integrator.addPassSplats(passData[i].get(), tile.x0, tile.y0, tile.x1, tile.y1,
+                                     splats[(unit.passBegin + i) % 2]);
+        for (int parity = 0; parity < 2; ++parity)
+            out.addPassesOfParity(splats[parity], parity == 1);
+    }
     return !cancelled;
 }
 

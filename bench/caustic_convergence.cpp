@@ -1,8 +1,7 @@
 // Error against wall time for path_mis and the progressive photon mapper on the caustic scene:
 // both render the same crop around the caustic, pass by pass, through renderUnit; at every power of
 // two of passes the RMS error against a long reference is recorded with the wall time so far.
-// Writes a CSV and a log-log chart (PNG: x = seconds, y = RMS error, one decade per grid line; red
-// = path_mis, blue = photonmapper).
+// Writes a CSV; bench/atlas/plot_convergence.py draws it (matplotlib, log-log).
 //
 // The reference is the progressive photon mapper itself at many more passes with another seed:
 // it converges to the same limit as path_mis (the radius shrinks to zero), and path_mis at any
@@ -10,7 +9,6 @@
 //
 // usage: bench_caustic_convergence [maxPasses=256] [referencePasses=2048] [outDir=out/bench]
 #include "common/farm/job_scene.h"
-#include "common/render/image_io.h"
 #include "common/render/unit.h"
 #include "common/scene/scene.h"
 
@@ -57,56 +55,6 @@ void render(const Scene& scene, uint64_t seed, uint32_t passes, Record record) {
         seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (((pass + 1) & pass) == 0 && !record(pass + 1, seconds, block)) return;
     }
-}
-
-void plot(const std::string& path, const std::vector<std::vector<Point>>& series) {
-    double xMin = 1e30, xMax = 0, yMin = 1e30, yMax = 0;
-    for (const auto& s : series)
-        for (const Point& p : s) {
-            xMin = std::min(xMin, p.seconds), xMax = std::max(xMax, p.seconds);
-            yMin = std::min(yMin, p.rmse), yMax = std::max(yMax, p.rmse);
-        }
-    const double lx0 = std::floor(std::log10(xMin)), lx1 = std::ceil(std::log10(xMax));
-    const double ly0 = std::floor(std::log10(yMin)), ly1 = std::ceil(std::log10(yMax));
-    const int w = 640, h = 480, margin = 40;
-    Image image(w, h);
-    for (float& v : image.rgb) v = 1.0f;
-    auto toPixel = [&](double seconds, double rmse) {
-        const double fx = (std::log10(seconds) - lx0) / std::max(1.0, lx1 - lx0);
-        const double fy = (std::log10(rmse) - ly0) / std::max(1.0, ly1 - ly0);
-        return Point2f(float(margin + fx * (w - 2 * margin)),
-                       float(h - margin - fy * (h - 2 * margin)));
-    };
-    auto dot = [&](float x, float y, const Color3f& c, int r) {
-        for (int dy = -r; dy <= r; ++dy)
-            for (int dx = -r; dx <= r; ++dx) {
-                const int px = int(std::lround(x)) + dx, py = int(std::lround(y)) + dy;
-                if (px >= 0 && py >= 0 && px < w && py < h) image.set(px, py, c);
-            }
-    };
-    const Color3f grid(0.8f), axis(0.0f);
-    for (double d = lx0; d <= lx1; ++d)  // one vertical line per decade of seconds
-        for (int y = margin; y <= h - margin; ++y)
-            dot(toPixel(std::pow(10.0, d), std::pow(10.0, ly0)).x(), float(y),
-                d == lx0 ? axis : grid, 0);
-    for (double d = ly0; d <= ly1; ++d)  // one horizontal line per decade of error
-        for (int x = margin; x <= w - margin; ++x)
-            dot(float(x), toPixel(std::pow(10.0, lx0), std::pow(10.0, d)).y(),
-                d == ly0 ? axis : grid, 0);
-    const Color3f colours[] = {Color3f(0.85f, 0.1f, 0.1f), Color3f(0.1f, 0.2f, 0.85f)};
-    for (size_t s = 0; s < series.size(); ++s)
-        for (size_t i = 0; i < series[s].size(); ++i) {
-            const Point2f a = toPixel(series[s][i].seconds, series[s][i].rmse);
-            dot(a.x(), a.y(), colours[s % 2], 3);
-            if (i == 0) continue;
-            const Point2f b = toPixel(series[s][i - 1].seconds, series[s][i - 1].rmse);
-            for (int k = 0; k <= 100; ++k)
-                dot(b.x() + (a.x() - b.x()) * k / 100.0f, b.y() + (a.y() - b.y()) * k / 100.0f,
-                    colours[s % 2], 1);
-        }
-    writePNG(path, image);
-    std::printf("chart: %s (x: 1e%g .. 1e%g s, y: 1e%g .. 1e%g RMS error, log-log)\n", path.c_str(),
-                lx0, lx1, ly0, ly1);
 }
 
 }  // namespace
@@ -163,7 +111,9 @@ int main(int argc, char** argv) {
         "equal time: path_mis %u passes, %.2f s, RMS error %.5f; photonmapper %u passes, "
         "%.2f s, RMS error %.5f; error ratio path_mis / photonmapper %.2f\n",
         mis.passes, mis.seconds, mis.rmse, ppm.passes, ppm.seconds, ppm.rmse, mis.rmse / ppm.rmse);
-    std::printf("csv: %s/caustic_convergence.csv\n", outDir.c_str());
-    plot(outDir + "/caustic_convergence.png", series);
+    std::printf(
+        "csv: %s/caustic_convergence.csv (chart: /usr/bin/python3 bench/atlas/plot_convergence.py "
+        "%s/caustic_convergence.csv)\n",
+        outDir.c_str(), outDir.c_str());
     return 0;
 }

@@ -4,6 +4,7 @@
 // renders one job through that farm and exits with submit's exit code.
 #include "cli/commands.h"
 #include "cli/farm_client.h"
+#include "cli/progress.h"
 
 #include "common/core/error.h"
 #include "common/farm/files.h"
@@ -304,9 +305,10 @@ Command addClusterCommand(CLI::App& app) {
     sub->add_option("-o,--output", options->submit.output,
                     "With --render: output EXR (default: out/SCENE.exr)")
         ->check(kExrOutputPath);
-    sub->add_option("--passes,--spp", options->submit.passes,
-                    "With --render: passes (default: the scene's sampleCount)")
-        ->check(kPositiveCount);
+    auto* passes = sub->add_option("--passes,--spp", options->submit.passes,
+                                   "With --render: passes (default: the scene's sampleCount)")
+                       ->check(kPositiveCount);
+    addTargetErrorOptions(*sub, options->submit.targetError, options->submit.maxPasses, {passes});
     sub->add_option("--seed", options->submit.seed, "With --render: random seed");
     sub->add_option("--tile", options->submit.tile, "With --render: tile size");
     sub->add_flag("--json", options->json, "With --render: print the final job status as JSON");

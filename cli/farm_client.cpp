@@ -13,6 +13,7 @@
 #include <absl/strings/str_format.h>
 #include <google/protobuf/util/json_util.h>
 
+#include <pwd.h>
 #include <unistd.h>
 
 #include <cstdlib>
@@ -28,6 +29,19 @@ namespace fs = std::filesystem;
 static std::string fromEnvironment(const char* name) {
     const char* value = std::getenv(name);
     return value ? value : "";
+}
+
+std::string statusErrorText(const v1::JobStatus& status) {
+    std::optional<ErrorEstimate> estimate;
+    if (status.has_error_estimate()) {
+        estimate = ErrorEstimate();
+        estimate->relativeRmse = status.error_estimate();
+        estimate->passes = status.error_estimate_passes();
+    }
+    const v1::JobSettings& settings = status.settings();
+    return errorText(estimate, settings.has_target_error()
+                                   ? std::optional<double>(settings.target_error())
+                                   : std::nullopt);
 }
 
 void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options) {
@@ -203,6 +217,17 @@ void FarmClient::check(const grpc::Status& status, const char* what) {
     if (!status.ok()) fail("%s: %s", what, status.error_message());
 }
 
+std::string submitterName() {
+    std::string user;
+    if (const char* name = std::getenv("USER"); name && *name) user = name;
+    if (user.empty())
+        if (const passwd* entry = ::getpwuid(::getuid()); entry && entry->pw_name)
+            user = entry->pw_name;
+    char host[256] = {};
+    ::gethostname(host, sizeof host - 1);
+    return (user.empty() ? "uid" + std::to_string(::getuid()) : user) + "@" + host;
+}
+
 std::string toJson(const google::protobuf::Message& message) {
     std::string json;
     google::protobuf::util::JsonPrintOptions options;
@@ -254,6 +279,7 @@ v1::JobStatus FarmClient::submit(const std::string& scenePath, const v1::JobSett
     v1::SubmitJobRequest request;
     *request.mutable_bundle() = farm::toProto(bundle);
     *request.mutable_settings() = settings;
+    if (request.settings().owner().empty()) request.mutable_settings()->set_owner(submitterName());
     v1::SubmitJobResponse response;
     check(m_stub->SubmitJob(context().get(), request, &response), "SubmitJob");
     return response.status();
@@ -291,9 +317,10 @@ v1::JobStatus FarmClient::watch(uint64_t jobId, bool quiet) {
                                                           status.units_total(), "units");
             progress->update(
                 status.units_done(),
-                absl::StrFormat("%u/%u passes  %s  %u workers%s", status.passes_done(),
-                                status.settings().passes(),
-                                speedText(status.samples_per_second(), std::nullopt),
+                absl::StrFormat("%s%u/%u passes  %s  %s  %u workers%s",
+                                status.paused() ? "paused  " : "", status.passes_done(),
+                                status.settings().passes(), statusErrorText(status),
+                                speedText(status.samples_per_second(), status.rays_per_second()),
                                 status.active_workers(),
                                 status.has_photon_radius()
                                     ? absl::StrFormat("  radius %.4g", status.photon_radius())

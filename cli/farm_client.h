@@ -3,11 +3,14 @@
 #pragma once
 
 #include "alphorn/v1/client_service.grpc.pb.h"
+#include "cli/commands.h"
 
 #include <CLI/CLI.hpp>
 
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
 namespace alphorn::cli {
 
@@ -79,6 +82,8 @@ class FarmClient {
 };
 
 std::string toJson(const google::protobuf::Message& message);
+// "user@host": who submits, as `alphorn status` shows it ($USER, else the password database).
+std::string submitterName();
 
 }  // namespace alphorn::cli
 
@@ -95,9 +100,19 @@ struct SubmitOptions {
     std::string name;
     std::string integrator;
     bool watch = false;
+    // --target-error and its cap --max-passes (which then replaces `passes`).
+    std::optional<double> targetError;
+    std::optional<uint32_t> maxPasses;
 };
+
+// The job's error estimate for progress and status lines: "err 3.1% -> 2% (~64 passes)".
+std::string statusErrorText(const v1::JobStatus& status);
 
 // `alphorn submit` after option parsing; also what `alphorn cluster --render` runs.
 int runSubmit(FarmClient& client, const SubmitOptions& options, bool json);
+
+// Job and worker control (cli/farm_commands.cpp): retry, pause, resume, priority, delete, logs,
+// drain, undrain.
+std::vector<Command> addControlCommands(CLI::App& app);
 
 }  // namespace alphorn::cli

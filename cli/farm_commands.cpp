@@ -1,4 +1,5 @@
-// The farm client subcommands: submit, watch, status, cancel, fetch, workers. They talk to an
+// The farm client subcommands: submit, watch, status, cancel, fetch, workers, and the job and
+// worker controls retry, pause, resume, priority, delete, logs, drain, undrain. They talk to an
 // alphorn-coordinator (proto/alphorn/v1/client_service.proto) and never render themselves.
 #include "cli/commands.h"
 #include "cli/farm_client.h"
@@ -9,7 +10,9 @@
 
 #include <absl/strings/str_format.h>
 
+#include <ctime>
 #include <iostream>
+#include <thread>
 
 namespace alphorn::cli {
 
@@ -28,20 +31,42 @@ std::string duplication(const v1::JobStatus& s) {
                            double(s.pass_data_builds()) / s.settings().passes());
 }
 
+// Local time as "2026-12-02 05:13:04" (`withDate`) or "12-02 05:13".
+std::string localTime(double unixSeconds, bool withDate) {
+    const std::time_t seconds = static_cast<std::time_t>(unixSeconds);
+    std::tm local = {};
+    ::localtime_r(&seconds, &local);
+    char text[32] = {};
+    std::strftime(text, sizeof text, withDate ? "%Y-%m-%d %H:%M:%S" : "%m-%d %H:%M", &local);
+    return text;
+}
+
+// "running", or "paused" for a running job a client paused.
+std::string jobStateText(const v1::JobStatus& s) {
+    return s.paused() ? "paused" : farm::jobStateName(s.state());
+}
+
 // The job table: a header row, then one row per job; the last column holds what only some jobs
-// have (photon radius, pass data duplication, error). `--json` prints the same fields.
+// have (photon radius, pass data duplication, error). `--json` prints the same fields (the
+// owner is settings.owner, the submit time submitted_at_unix_seconds).
 void printStatusTable(const std::vector<v1::JobStatus>& jobs) {
-    const char* format = "%-6s %-10s %-20s %9s  %13s  %13s  %4s  %s\n";
-    std::cout << absl::StrFormat(format, "JOB", "STATE", "NAME", "SIZE", "PASSES", "UNITS", "PRIO",
-                                 "NOTES");
+    const char* format = "%-6s %-10s %-20s %-18s %-11s %9s  %13s  %13s  %4s  %s\n";
+    std::cout << absl::StrFormat(format, "JOB", "STATE", "NAME", "OWNER", "SUBMITTED", "SIZE",
+                                 "PASSES", "UNITS", "PRIO", "NOTES");
     for (const v1::JobStatus& s : jobs) {
         std::string notes =
             s.has_photon_radius() ? absl::StrFormat("photon radius %.4g", s.photon_radius()) : "";
+        const std::string estimate =
+            s.has_error_estimate() || s.settings().has_target_error() ? statusErrorText(s) : "";
         for (const std::string& note :
-             {duplication(s), s.error().empty() ? "" : "error: " + s.error()})
+             {estimate, s.target_reached() ? std::string("target reached") : std::string(),
+              duplication(s), s.error().empty() ? "" : "error: " + s.error()})
             if (!note.empty()) notes += (notes.empty() ? "" : "  ") + note;
         std::cout << absl::StrFormat(
-            format, std::to_string(s.job_id()), farm::jobStateName(s.state()), s.settings().name(),
+            format, std::to_string(s.job_id()), jobStateText(s), s.settings().name(),
+            s.settings().owner().empty() ? "-" : s.settings().owner(),
+            s.submitted_at_unix_seconds() > 0 ? localTime(s.submitted_at_unix_seconds(), false)
+                                              : "-",
             absl::StrFormat("%ux%u", s.width(), s.height()),
             absl::StrFormat("%u/%u", s.passes_done(), s.settings().passes()),
             absl::StrFormat("%u/%u", s.units_done(), s.units_total()),
@@ -51,6 +76,43 @@ void printStatusTable(const std::vector<v1::JobStatus>& jobs) {
 
 void printStatusLine(const v1::JobStatus& s) {
     printStatusTable({s});
+}
+
+// "alive", "draining" (a client drained it), "exiting" (stopping on SIGTERM), "silent" (no call
+// for two heartbeat intervals: probably killed), "dead", "left" (exited after draining).
+std::string workerStateText(const v1::WorkerInfo& w) {
+    std::string state;
+    switch (w.state()) {
+        case v1::WORKER_STATE_SILENT:
+            state = "silent";
+            break;
+        case v1::WORKER_STATE_DEAD:
+            state = "dead";
+            break;
+        case v1::WORKER_STATE_LEFT:
+            return "left";
+        case v1::WORKER_STATE_ALIVE:
+            state = "alive";
+            break;
+        default:
+            state = w.alive() ? "alive" : "dead";  // a coordinator that predates the states
+    }
+    const char* draining = w.exiting() ? "exiting" : w.draining() ? "draining" : nullptr;
+    if (!draining) return state;
+    return state == "alive" ? draining : state + "," + draining;
+}
+
+void printWorkerTable(const std::vector<v1::WorkerInfo>& workers) {
+    const char* format = "%-5s %-28s %5s %9s  %-8s %-15s %6s %13s  %-30s %s\n";
+    std::cout << absl::StrFormat(format, "ID", "NAME", "CORES", "MEMORY", "VERSION", "STATE",
+                                 "LEASES", "UNITS MERGED", "SPEED", "LAST SEEN");
+    for (const auto& w : workers)
+        std::cout << absl::StrFormat(
+            format, std::to_string(w.worker_id()), w.name(), std::to_string(w.cores()),
+            absl::StrFormat("%.1f GiB", w.memory_bytes() / double(1 << 30)), w.version(),
+            workerStateText(w), std::to_string(w.leases()), std::to_string(w.units_merged()),
+            w.units_merged() > 0 ? speedText(w.samples_per_second(), w.rays_per_second()) : "-",
+            absl::StrFormat("%.1f s ago", w.seconds_since_seen()));
 }
 
 }  // namespace
@@ -64,6 +126,10 @@ int runSubmit(FarmClient& client, const SubmitOptions& options, bool json) {
     settings.set_priority(options.priority);
     settings.set_integrator_override(options.integrator);
     settings.set_name(options.name);
+    if (options.targetError) {
+        settings.set_target_error(*options.targetError);
+        settings.set_passes(*options.maxPasses);  // the option parser insists on the cap
+    }
     v1::JobStatus status = client.submit(options.scene, settings, json);
     if (!json)
         std::cerr << absl::StrFormat("job %u submitted: %ux%u, %u passes, %u units\n",
@@ -105,9 +171,10 @@ Command addSubmitCommand(CLI::App& app) {
     auto* passes = sub->add_option("--passes", options->passes,
                                    "Number of passes (default: the scene's sampleCount)")
                        ->check(kPositiveCount);
-    sub->add_option("--spp", *spp, "Samples per pixel (= passes)")
-        ->excludes(passes)
-        ->check(kPositiveCount);
+    auto* sppOption = sub->add_option("--spp", *spp, "Samples per pixel (= passes)")
+                          ->excludes(passes)
+                          ->check(kPositiveCount);
+    addTargetErrorOptions(*sub, options->targetError, options->maxPasses, {passes, sppOption});
     sub->add_option("--seed", options->seed, "Random seed; the image is a pure function of it");
     sub->add_option("--tile", options->tile, "Tile size in pixels (does not change the image)");
     sub->add_option("--passes-per-unit", options->passesPerUnit,
@@ -239,18 +306,246 @@ Command addWorkersCommand(CLI::App& app) {
                                        : "no workers seen recently (--all lists every worker)\n");
                     return kExitOk;
                 }
-                const char* format = "%-5s %-28s %5s %9s  %-8s %-5s %6s %13s  %s\n";
-                std::cout << absl::StrFormat(format, "ID", "NAME", "CORES", "MEMORY", "VERSION",
-                                             "STATE", "LEASES", "UNITS MERGED", "LAST SEEN");
-                for (const auto& w : response.workers())
-                    std::cout << absl::StrFormat(
-                        format, std::to_string(w.worker_id()), w.name(), std::to_string(w.cores()),
-                        absl::StrFormat("%.1f GiB", w.memory_bytes() / double(1 << 30)),
-                        w.version(), w.alive() ? "alive" : "dead", std::to_string(w.leases()),
-                        std::to_string(w.units_merged()),
-                        absl::StrFormat("%.1f s ago", w.seconds_since_seen()));
+                printWorkerTable({response.workers().begin(), response.workers().end()});
                 return kExitOk;
             }};
+}
+
+namespace {
+
+// A control subcommand on one job: `alphorn NAME JOB [ARG]`, which calls `change` and prints
+// what it says (stderr) and the job's row (stdout), or with --json the job's status.
+using JobChange = std::function<v1::JobStatus(FarmClient&, uint64_t, std::string&)>;
+
+Command addJobChangeCommand(CLI::App& app, const char* name, const char* description,
+                            const std::function<void(CLI::App*)>& addArguments,
+                            const JobChange& change) {
+    auto connection = std::make_shared<FarmConnectionOptions>();
+    auto jobId = std::make_shared<uint64_t>(0);
+    CLI::App* sub = app.add_subcommand(name, description);
+    sub->add_option("job", *jobId, "Job id")->required();
+    if (addArguments) addArguments(sub);
+    addConnectionOptions(sub, *connection);
+    return {sub, [=] {
+                FarmClient client(*connection);
+                std::string said;
+                const v1::JobStatus status = change(client, *jobId, said);
+                if (connection->json) {
+                    std::cout << toJson(status) << "\n";
+                } else {
+                    if (!said.empty()) std::cerr << said << "\n";
+                    printStatusLine(status);
+                }
+                return kExitOk;
+            }};
+}
+
+std::string eventKindText(v1::JobEventKind kind) {
+    // JOB_EVENT_PRIORITY_CHANGED -> priority-changed
+    std::string name = v1::JobEventKind_Name(kind);
+    const std::string prefix = "JOB_EVENT_";
+    if (name.rfind(prefix, 0) == 0) name = name.substr(prefix.size());
+    for (char& c : name) c = c == '_' ? '-' : char(std::tolower(static_cast<unsigned char>(c)));
+    return name;
+}
+
+void printEvent(const v1::JobEvent& event) {
+    std::string who;
+    if (event.worker_id() != 0) who = absl::StrFormat("worker %u", event.worker_id());
+    if (event.has_unit())
+        who += (who.empty() ? "" : " ") + absl::StrFormat("unit %u", event.unit_index());
+    std::cout << absl::StrFormat("%s  %6u  %-16s %-20s %s\n",
+                                 localTime(event.time_unix_seconds(), true), event.sequence(),
+                                 eventKindText(event.kind()), who, event.message());
+}
+
+}  // namespace
+
+std::vector<Command> addControlCommands(CLI::App& app) {
+    std::vector<Command> commands;
+    commands.push_back(addJobChangeCommand(
+        app, "retry", "Run a failed or cancelled farm job again (same bytes as a fresh job).",
+        [](CLI::App* sub) {
+            sub->footer(
+                "The job keeps its id. The units in its checkpoint stay merged (their sums are "
+                "exact); the others are rendered again with their failed attempts forgotten, so "
+                "the image is byte for byte that of a fresh job with the same scene, seed and "
+                "passes.");
+        },
+        [](FarmClient& client, uint64_t jobId, std::string& said) {
+            v1::RetryJobRequest request;
+            request.set_job_id(jobId);
+            v1::JobControlResponse response;
+            FarmClient::check(client.stub().RetryJob(client.context().get(), request, &response),
+                              "RetryJob");
+            said =
+                absl::StrFormat("job %u runs again: %u of %u units kept from its checkpoint", jobId,
+                                response.status().units_done(), response.status().units_total());
+            return response.status();
+        }));
+    for (const bool pause : {true, false})
+        commands.push_back(addJobChangeCommand(
+            app, pause ? "pause" : "resume",
+            pause ? "Pause a running farm job (no new leases; units out finish and merge)."
+                  : "Resume a paused farm job.",
+            nullptr, [pause](FarmClient& client, uint64_t jobId, std::string& said) {
+                v1::SetJobPausedRequest request;
+                request.set_job_id(jobId);
+                request.set_paused(pause);
+                v1::JobControlResponse response;
+                FarmClient::check(
+                    client.stub().SetJobPaused(client.context().get(), request, &response),
+                    "SetJobPaused");
+                said = pause
+                           ? absl::StrFormat("job %u paused; units out, which may still finish: %u",
+                                             jobId, response.status().units_leased())
+                           : absl::StrFormat("job %u resumed", jobId);
+                return response.status();
+            }));
+    auto priority = std::make_shared<int32_t>(0);
+    commands.push_back(addJobChangeCommand(
+        app, "priority",
+        "Change a running farm job's priority (higher runs first; FIFO within a priority).",
+        [priority](CLI::App* sub) {
+            sub->add_option("priority", *priority, "The new priority (may be negative)")
+                ->required();
+        },
+        [priority](FarmClient& client, uint64_t jobId, std::string& said) {
+            v1::SetJobPriorityRequest request;
+            request.set_job_id(jobId);
+            request.set_priority(*priority);
+            v1::JobControlResponse response;
+            FarmClient::check(
+                client.stub().SetJobPriority(client.context().get(), request, &response),
+                "SetJobPriority");
+            said = absl::StrFormat("job %u: priority %d", jobId, *priority);
+            return response.status();
+        }));
+
+    {
+        auto connection = std::make_shared<FarmConnectionOptions>();
+        auto jobId = std::make_shared<uint64_t>(0);
+        auto cancel = std::make_shared<bool>(false);
+        CLI::App* sub = app.add_subcommand(
+            "delete", "Delete a farm job now, with the uploaded files only it used.");
+        sub->footer(
+            "Removes the job's record, event log, images and scene bundle, and the uploaded "
+            "files no other job uses (unless a client asked for them since the job was "
+            "submitted). A running job is refused unless --cancel.");
+        sub->add_option("job", *jobId, "Job id")->required();
+        sub->add_flag("--cancel", *cancel, "Cancel the job first if it is still running");
+        addConnectionOptions(sub, *connection);
+        commands.push_back(
+            {sub, [=] {
+                 FarmClient client(*connection);
+                 v1::DeleteJobRequest request;
+                 request.set_job_id(*jobId);
+                 request.set_cancel_running(*cancel);
+                 v1::DeleteJobResponse response;
+                 FarmClient::check(
+                     client.stub().DeleteJob(client.context().get(), request, &response),
+                     "DeleteJob");
+                 if (connection->json)
+                     std::cout << toJson(response) << "\n";
+                 else
+                     std::cout << absl::StrFormat(
+                         "deleted job %u%s; removed %u files (%.1f KiB) no other "
+                         "job uses\n",
+                         response.job_id(), response.cancelled() ? " (cancelled it first)" : "",
+                         response.blobs_removed(), response.blob_bytes_removed() / 1024.0);
+                 return kExitOk;
+             }});
+    }
+
+    {
+        auto connection = std::make_shared<FarmConnectionOptions>();
+        auto jobId = std::make_shared<uint64_t>(0);
+        auto follow = std::make_shared<bool>(false);
+        CLI::App* sub = app.add_subcommand("logs", "Print a farm job's event log.");
+        sub->footer(
+            "Events: submitted, leased, merged, failed (with the worker's error), poisoned, "
+            "handed-back, checkpointed, paused, resumed, priority-changed, retried, cancelled, "
+            "finished, resumed-after-restart. The coordinator keeps the first 50 and the most "
+            "recent events of each job, 1000 in all, and says how many it left out. --json "
+            "prints the log as one document, or with --follow one event per line.");
+        sub->add_option("job", *jobId, "Job id")->required();
+        sub->add_flag("-f,--follow", *follow,
+                      "Keep printing new events until the job ends (asks once a second)");
+        addConnectionOptions(sub, *connection);
+        commands.push_back(
+            {sub, [=] {
+                 FarmClient client(*connection);
+                 uint64_t last = 0;
+                 bool headerShown = false;
+                 for (;;) {
+                     v1::GetJobLogRequest request;
+                     request.set_job_id(*jobId);
+                     request.set_after_sequence(last);
+                     v1::GetJobLogResponse response;
+                     FarmClient::check(
+                         client.stub().GetJobLog(client.context().get(), request, &response),
+                         "GetJobLog");
+                     if (connection->json && !*follow) {
+                         std::cout << toJson(response) << "\n";
+                         return kExitOk;
+                     }
+                     if (!connection->json && !headerShown) {
+                         std::cout << absl::StrFormat("%-19s  %6s  %-16s %-20s %s\n", "TIME", "SEQ",
+                                                      "EVENT", "WORKER/UNIT", "DETAILS");
+                         headerShown = true;
+                     }
+                     for (const v1::JobEvent& event : response.events()) {
+                         if (connection->json) {
+                             std::cout << toJson(event) << "\n";  // one JSON document per line
+                         } else {
+                             if (event.sequence() > last + 1)
+                                 std::cout << absl::StrFormat(
+                                     "...  %u events not kept (the log keeps the first and the "
+                                     "most "
+                                     "recent)\n",
+                                     event.sequence() - last - 1);
+                             printEvent(event);
+                         }
+                         last = event.sequence();
+                     }
+                     std::cout.flush();
+                     if (!*follow || response.state() != v1::JOB_STATE_RUNNING) return kExitOk;
+                     std::this_thread::sleep_for(std::chrono::seconds(1));
+                 }
+             }});
+    }
+
+    for (const bool drain : {true, false}) {
+        auto connection = std::make_shared<FarmConnectionOptions>();
+        auto workerId = std::make_shared<uint64_t>(0);
+        CLI::App* sub = app.add_subcommand(
+            drain ? "drain" : "undrain",
+            drain ? "Drain a farm worker (it finishes its units and gets no new one)."
+                  : "Undrain a farm worker (it gets units again).");
+        if (drain)
+            sub->footer(
+                "The worker stays connected and idle until `alphorn undrain`; `alphorn workers` "
+                "shows it draining. To stop a worker for good, send it SIGTERM: it finishes its "
+                "unit and exits.");
+        sub->add_option("worker", *workerId, "Worker id (from `alphorn workers`)")->required();
+        addConnectionOptions(sub, *connection);
+        commands.push_back({sub, [=] {
+                                FarmClient client(*connection);
+                                v1::SetWorkerDrainingRequest request;
+                                request.set_worker_id(*workerId);
+                                request.set_draining(drain);
+                                v1::SetWorkerDrainingResponse response;
+                                FarmClient::check(client.stub().SetWorkerDraining(
+                                                      client.context().get(), request, &response),
+                                                  "SetWorkerDraining");
+                                if (connection->json)
+                                    std::cout << toJson(response.worker()) << "\n";
+                                else
+                                    printWorkerTable({response.worker()});
+                                return kExitOk;
+                            }});
+    }
+    return commands;
 }
 
 }  // namespace alphorn::cli

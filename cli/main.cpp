@@ -66,6 +66,7 @@ int main(int argc, char** argv) {
     commands.push_back(addCancelCommand(app));
     commands.push_back(addFetchCommand(app));
     commands.push_back(addWorkersCommand(app));
+    for (Command& command : addControlCommands(app)) commands.push_back(std::move(command));
     commands.push_back(addClusterCommand(app));
     commands.push_back(addTestCommand(app));
 

@@ -24,6 +24,58 @@ std::string speedText(double samplesPerSecond, std::optional<double> raysPerSeco
     return text;
 }
 
+std::string errorText(const std::optional<ErrorEstimate>& estimate,
+                      std::optional<double> targetError) {
+    std::string text = "err ";
+    text += estimate ? absl::StrFormat("%.3g%%", 100.0 * estimate->relativeRmse) : "-";
+    if (targetError) {
+        text += absl::StrFormat(" -> %.3g%%", 100.0 * *targetError);
+        if (estimate)
+            text += absl::StrFormat(" (~%.0f passes)", projectedPasses(*estimate, *targetError));
+    }
+    return text;
+}
+
+std::string errorText(const RenderStatus& status, std::optional<double> targetError) {
+    return errorText(status.estimate, targetError);
+}
+
+std::string finalEstimateText(const RenderStatus& status, std::optional<double> targetError,
+                              uint32_t cap) {
+    if (!status.estimate)
+        return "error estimate: none (it needs 4 passes, or 2 passes of a film with light)";
+    std::string text = absl::StrFormat(
+        "error estimate: relative RMSE %.4g at %u passes (from the odd and even passes)",
+        status.estimate->relativeRmse, status.estimate->passes);
+    if (targetError) {
+        if (status.targetReached)
+            text += absl::StrFormat("; target %.4g reached", *targetError);
+        else if (status.passesDone >= cap)
+            text += absl::StrFormat(
+                "; target %.4g not reached within --max-passes %u "
+                "(about %.0f passes would reach it)",
+                *targetError, cap, projectedPasses(*status.estimate, *targetError));
+    }
+    return text;
+}
+
+void addTargetErrorOptions(CLI::App& sub, std::optional<double>& targetError,
+                           std::optional<uint32_t>& maxPasses,
+                           const std::vector<CLI::Option*>& fixedPasses) {
+    CLI::Option* target =
+        sub.add_option("--target-error", targetError,
+                       "Stop at the first of 4, 8, 16, ... passes (or --max-passes) whose "
+                       "estimated relative RMSE of the luminance is at most E (e.g. 0.02); "
+                       "needs --max-passes")
+            ->check(CLI::Range(1e-6, 1.0));
+    CLI::Option* cap = sub.add_option("--max-passes", maxPasses,
+                                      "The most passes a --target-error render may take")
+                           ->check(CLI::Range(1u, 1u << 20));
+    target->needs(cap);
+    cap->needs(target);
+    for (CLI::Option* fixed : fixedPasses) target->excludes(fixed);
+}
+
 int terminalColumns() {
     winsize size = {};
     if (::ioctl(STDERR_FILENO, TIOCGWINSZ, &size) == 0 && size.ws_col > 0) return size.ws_col;

@@ -2,6 +2,10 @@
 // fitted to its width, and plain, occasional log lines otherwise (CI logs, pipes).
 #pragma once
 
+#include "common/render/local_render.h"
+
+#include <CLI/CLI.hpp>
+
 #include <chrono>
 #include <cstdint>
 #include <optional>
@@ -38,6 +42,22 @@ std::string formatDuration(double seconds);
 // Throughput in the one unit every command shows: "1.23 Msamples/s  4.56 Mrays/s" (a sample is
 // one camera path through one pixel in one pass). Without a ray rate (not known) only samples.
 std::string speedText(double samplesPerSecond, std::optional<double> raysPerSecond);
+
+// The error estimate in a progress line: "err 3.1%" (at the last decision point), with the
+// target "err 3.1% -> 2%" and the projected passes to reach it; "err -" before the first.
+std::string errorText(const std::optional<ErrorEstimate>& estimate,
+                      std::optional<double> targetError);
+std::string errorText(const RenderStatus& status, std::optional<double> targetError);
+// The closing line of a render about its error: the estimate at the last decision point, and
+// whether the target was reached or the cap stopped it.
+std::string finalEstimateText(const RenderStatus& status, std::optional<double> targetError,
+                              uint32_t cap);
+
+// --target-error E and --max-passes N (render, submit, cluster): a target needs the cap, and
+// excludes the options that fix the number of passes (`fixedPasses`).
+void addTargetErrorOptions(CLI::App& sub, std::optional<double>& targetError,
+                           std::optional<uint32_t>& maxPasses,
+                           const std::vector<CLI::Option*>& fixedPasses);
 
 // The columns of the terminal on stderr (TIOCGWINSZ), else $COLUMNS, else 80.
 int terminalColumns();

@@ -26,7 +26,8 @@ namespace {
 struct RenderOptions {
     std::string scene;
     std::string output;
-    std::optional<uint32_t> spp, passes;
+    std::optional<uint32_t> spp, passes, maxPasses;
+    std::optional<double> targetError;  // relative RMSE
     int threads = 0;
     uint64_t seed = 0;
     int tile = 64;
@@ -127,6 +128,10 @@ static int runRender(const RenderOptions& options) {
                       : options.spp  ? *options.spp
                                      : static_cast<uint32_t>(scene->sampler()->sampleCount());
     if (settings.passes == 0) fail("the number of passes must be positive");
+    if (options.targetError) {
+        settings.targetError = options.targetError;
+        settings.passes = *options.maxPasses;  // the option parser insists on the cap
+    }
 
     std::string output = options.output;
     if (output.empty())
@@ -143,28 +148,37 @@ static int runRender(const RenderOptions& options) {
     settings.stop = &g_stop;
     stopOnInterrupt();
     uint32_t passesDone = 0;
+    RenderStatus finalStatus;
     auto start = std::chrono::steady_clock::now();
-    FilmBlock film = renderLocal(*scene, settings, [&](const RenderStatus& status) {
-        double seconds =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        passesDone = status.passesDone;
-        if (options.timeLimit > 0 && seconds >= options.timeLimit) g_stop.store(true);
-        std::string radius;
-        if (radiusSchedule)
-            radius = absl::StrFormat(
-                "  radius %.4g",
-                reportedProgressiveRadius(radiusSchedule->initialRadius, radiusSchedule->alpha,
-                                          status.passesDone));
-        progress.update(status.passesDone,
-                        speedText(seconds > 0 ? status.samplesDone / seconds : 0.0,
-                                  seconds > 0 ? status.rays / seconds : 0.0) +
-                            radius);
-    });
+    FilmBlock film = renderLocal(
+        *scene, settings,
+        [&](const RenderStatus& status) {
+            double seconds =
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            passesDone = status.passesDone;
+            if (options.timeLimit > 0 && seconds >= options.timeLimit) g_stop.store(true);
+            std::string radius;
+            if (radiusSchedule)
+                radius = absl::StrFormat(
+                    "  radius %.4g",
+                    reportedProgressiveRadius(radiusSchedule->initialRadius, radiusSchedule->alpha,
+                                              status.passesDone));
+            progress.update(status.passesDone,
+                            errorText(status, settings.targetError) + "  " +
+                                speedText(seconds > 0 ? status.samplesDone / seconds : 0.0,
+                                          seconds > 0 ? status.rays / seconds : 0.0) +
+                                radius);
+        },
+        nullptr, &finalStatus);
     double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const bool interrupted = g_interrupted.load();
-    const bool stoppedEarly = passesDone < settings.passes;
-    progress.finish(interrupted ? "interrupted" : stoppedEarly ? "time limit reached" : "done");
+    const bool targetReached = finalStatus.targetReached;
+    const bool stoppedEarly = passesDone < settings.passes && !targetReached;
+    progress.finish(interrupted     ? "interrupted"
+                    : stoppedEarly  ? "time limit reached"
+                    : targetReached ? "target error reached"
+                                    : "done");
     if (passesDone == 0) {
         std::cerr << "interrupted before the first pass was done: no image written\n";
         return kExitInterrupted;
@@ -185,7 +199,8 @@ static int runRender(const RenderOptions& options) {
             pngPathFor(output), passesDone, passesDone, seconds);
     else
         std::cerr << absl::StrFormat("wrote %s and %s (%d passes, %.1f s)\n", output,
-                                     pngPathFor(output), settings.passes, seconds);
+                                     pngPathFor(output), passesDone, seconds);
+    std::cerr << finalEstimateText(finalStatus, settings.targetError, settings.passes) << "\n";
     return interrupted ? kExitInterrupted : kExitOk;
 }
 
@@ -201,9 +216,11 @@ Command addRenderCommand(CLI::App& app) {
     auto* spp = sub->add_option("--spp", options->spp,
                                 "Samples per pixel (= passes; default: the scene's sampleCount)")
                     ->check(kPositiveCount);
-    sub->add_option("--passes", options->passes, "Number of passes (one sample per pixel each)")
-        ->excludes(spp)
-        ->check(kPositiveCount);
+    auto* passes =
+        sub->add_option("--passes", options->passes, "Number of passes (one sample per pixel each)")
+            ->excludes(spp)
+            ->check(kPositiveCount);
+    addTargetErrorOptions(*sub, options->targetError, options->maxPasses, {spp, passes});
     sub->add_option("--threads", options->threads, "Worker threads (default: all cores)")
         ->check(CLI::Range(0, 1024));
     sub->add_option("--seed", options->seed, "Random seed; the image is a pure function of it");

@@ -78,6 +78,19 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
                         absl::StrReplaceAll(e.what(), {{bundleDirectory + "/", ""}}));
     }
     const Vector2i size = scene->camera()->outputSize();
+    if (settings.has_target_error()) {
+        const double target = settings.target_error();
+        std::string problem;
+        if (!(target > 0.0 && target <= 1.0))
+            problem =
+                absl::StrFormat("target error %g must be in (0, 1] (a relative RMSE)", target);
+        else if (settings.passes() == 0)
+            problem = "a target error needs a cap: give the most passes (--max-passes)";
+        if (!problem.empty()) {
+            fs::remove_all(admitted.stagingDirectory);
+            throw FarmError(Kind::InvalidArgument, problem);
+        }
+    }
     if (settings.passes() == 0)
         settings.set_passes(static_cast<uint32_t>(scene->sampler()->sampleCount()));
     if (settings.tile_size() == 0) settings.set_tile_size(limits.defaultTileSize);
@@ -86,6 +99,14 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
             defaultPassesPerUnit(settings, size, limits.defaultPassesPerUnit));
     // A unit never spans more passes than the job has (the image does not depend on it).
     settings.set_passes_per_unit(std::min(settings.passes_per_unit(), settings.passes()));
+    // A job with a target error decides at 4, 8, 16, ... passes: its pass chunks must end at
+    // each of them, so it gets 1, 2 or 4 passes per unit (the most of those not above the
+    // setting). More units cost a little more per sample; the image is the same.
+    if (settings.has_target_error()) {
+        uint32_t perUnit = 1;
+        while (perUnit * 2 <= std::min<uint32_t>(4, settings.passes_per_unit())) perUnit *= 2;
+        settings.set_passes_per_unit(perUnit);
+    }
     if (settings.name().empty()) settings.set_name(fs::path(bundle.scenePath).stem().string());
     const std::optional<RadiusSchedule> radiusSchedule = scene->integrator()->radiusSchedule();
     admitted.filterBorder = -makeUnitBlock(*scene, Tile{0, 0, 1, 1}).x0();

@@ -13,6 +13,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <vector>
 
 namespace alphorn::coordinator {
 namespace {
@@ -111,6 +112,39 @@ TEST_F(AdmissionTest, RefusalsSayWhyAndLeaveNothingBehind) {
     smallBundle.maxBundleBytes = 10;
     EXPECT_EQ(kindOf(request(), smallBundle), FarmError::Kind::ResourceExhausted);
     EXPECT_TRUE(stagingEmpty()) << "a refused job left its bundle behind";
+}
+
+// A target error needs a cap and a value in (0, 1]; its job gets 1, 2 or 4 passes per unit, so
+// that every decision point (4, 8, 16, ... passes) ends a pass chunk.
+TEST_F(AdmissionTest, ATargetErrorNeedsACapAndChunksEndingAtDecisionPoints) {
+    const auto refusal = [&](const v1::SubmitJobRequest& submit) -> std::string {
+        try {
+            admit(submit);
+        } catch (const FarmError& e) {
+            EXPECT_EQ(e.kind, FarmError::Kind::InvalidArgument);
+            return e.what();
+        }
+        return "admitted";
+    };
+    v1::SubmitJobRequest noCap = request();
+    noCap.mutable_settings()->set_target_error(0.05);
+    EXPECT_NE(refusal(noCap).find("--max-passes"), std::string::npos) << refusal(noCap);
+    v1::SubmitJobRequest badTarget = request();
+    badTarget.mutable_settings()->set_passes(64);
+    badTarget.mutable_settings()->set_target_error(0.0);
+    EXPECT_NE(refusal(badTarget).find("target error"), std::string::npos) << refusal(badTarget);
+    EXPECT_TRUE(stagingEmpty());
+
+    for (const auto& [requested, expected] :
+         std::vector<std::pair<uint32_t, uint32_t>>{{0, 4}, {16, 4}, {3, 2}, {1, 1}}) {
+        v1::SubmitJobRequest target = request();
+        target.mutable_settings()->set_passes(1000);
+        target.mutable_settings()->set_target_error(0.05);
+        target.mutable_settings()->set_passes_per_unit(requested);
+        const AdmittedJob job = admit(target);
+        EXPECT_EQ(job.description.settings().passes_per_unit(), expected) << requested;
+        EXPECT_EQ(job.description.settings().passes(), 1000u);
+    }
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 
 #include "common/core/error.h"
 #include "common/farm/files.h"
+#include "common/farm/metrics.h"
 
 #include <absl/strings/str_replace.h>
 #include <fcntl.h>
@@ -126,6 +127,7 @@ bool BlobStore::Upload::commit() {
              absl::StrReplaceAll(e.what(), {{m_store.m_directory + "/", ""}}));
     }
     m_committed = true;
+    farm::CoordinatorMetrics::blobStored(m_bytes);
     return true;
 }
 

@@ -108,6 +108,7 @@ void Coordinator::resume() {
         worker.info.set_memory_bytes(row.memoryBytes);
         worker.info.set_version(row.version);
         worker.lastContactWall = now;  // forgotten after the keep time unless it calls
+        worker.draining = row.draining;
         m_scheduler->addWorker(row.id, false);
         m_workers[row.id] = std::move(worker);
     }
@@ -119,6 +120,11 @@ void Coordinator::resume() {
         job->error = row.error;
         job->createdAt = row.createdAt;
         job->finishedAt = row.finishedAt;
+        try {
+            job->events = EventLog(m_store.jobLog(job->id));
+        } catch (const StorageError& e) {
+            logWarning("job.log_unreadable", {field("job", job->id), field("error", e.what())});
+        }
         try {
             resumeJob(*job, row);
         } catch (const std::exception& e) {
@@ -166,7 +172,8 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
     std::vector<uint32_t> attempts(unitCount, 0);
     for (const UnitAttemptsRow& unit : m_store.unitAttempts(job.id))
         if (unit.unitIndex < unitCount) attempts[unit.unitIndex] = unit.attempts;
-    job.film = std::make_unique<JobFilm>(job.grid, jobDirectory(job.id) + "/film.ckpt");
+    job.film = std::make_unique<JobFilm>(job.grid, jobDirectory(job.id) + "/film.ckpt",
+                                         targetError(settings));
     bool running = job.state == v1::JOB_STATE_RUNNING;
     if (running || job.state == v1::JOB_STATE_DONE) {
         const std::string checkpointPath = jobDirectory(job.id) + "/film.ckpt";
@@ -194,12 +201,18 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
     m_scheduler->addJob(job.id, job.description.settings().priority(), job.grid, job.film->merged(),
                         attempts, running);
     if (!running) return;
+    m_scheduler->setPaused(job.id, row.paused);
     if (!job.film->inMemory()) {
         const Checkpoint none{FilmBlock(0, 0, row.width, row.height), job.film->merged()};
         job.film->restore(none, true);
     }
+    m_scheduler->setLeaseLimit(job.id, job.film->leaseLimit());
     job.memoryBytes = jobMemoryBytes(row.width, row.height, unitCount);
     job.restored = job.film->mergedCount();
+    eventLocked(job, v1::JOB_EVENT_RESUMED_AFTER_RESTART,
+                absl::StrFormat("a coordinator process took the job up again: %u of %u units "
+                                "merged in its checkpoint%s",
+                                job.restored, unitCount, row.paused ? "; still paused" : ""));
     logInfo("job.resumed", {field("job", job.id), field("units_restored", job.restored),
                             field("units_total", unitCount)});
 }
@@ -227,6 +240,7 @@ void Coordinator::stop() {
     m_workAvailable.notify_all();
     if (m_background.joinable()) m_background.join();
     checkpointDirtyJobs();
+    saveChangedEventLogs();
     logInfo("coordinator.stopped");
 }
 
@@ -242,6 +256,13 @@ void Coordinator::backgroundLoop() {
 }
 
 void Coordinator::tick() {
+    {
+        std::vector<std::unique_ptr<Job>> deleted;
+        {
+            std::lock_guard lock(m_mutex);
+            deleted.swap(m_deletedJobs);
+        }
+    }
     try {
         expireLeases();
     } catch (const std::exception& e) {
@@ -257,6 +278,9 @@ void Coordinator::tick() {
     }
     if (m_clock->monotonicSeconds() >= m_nextCheckpoint) {
         checkpointDirtyJobs();
+        // The event logs are stored with each round of checkpoints: a crash loses at most the
+        // events since, as it loses the merges since.
+        saveChangedEventLogs();
         m_nextCheckpoint = m_clock->monotonicSeconds() + m_options.checkpointIntervalSeconds;
     }
 }
@@ -270,6 +294,8 @@ void Coordinator::touchBlobs(const std::vector<std::string>& sha256s) {
 void Coordinator::pruneFinishedJobs(double wallNow) {
     const Retention retention(m_options.keepFinishedSeconds);
     if (retention.keepsEverything()) return;
+    // Not while retry() holds an ended job outside m_mutex (or deleteJob() works).
+    std::lock_guard control(m_controlMutex);
     std::vector<uint64_t> removed;
     std::set<std::string> referenced;
     std::unordered_map<std::string, double> touchedAt;
@@ -392,18 +418,32 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     job->memoryBytes = memory;
     job->grid = grid;
     job->filterBorder = admitted.filterBorder;
-    job->film = std::make_unique<JobFilm>(grid, jobDirectory(job->id) + "/film.ckpt");
+    job->film = std::make_unique<JobFilm>(grid, jobDirectory(job->id) + "/film.ckpt",
+                                          targetError(job->description.settings()));
     job->film->startEmpty();
 
     std::lock_guard lock(m_mutex);
     const uint64_t id = job->id;
     const v1::JobSettings& settings = job->description.settings();
     m_scheduler->addJob(id, settings.priority(), grid, {}, {}, true);
+    m_scheduler->setLeaseLimit(id, job->film->leaseLimit());
+    eventLocked(*job, v1::JOB_EVENT_SUBMITTED,
+                absl::StrFormat("\"%s\" by %s: %dx%d, %u passes, seed %u, %u units of %u "
+                                "passes, tile %u, priority %d",
+                                settings.name(), settings.owner().empty() ? "?" : settings.owner(),
+                                grid.width(), grid.height(), settings.passes(), settings.seed(),
+                                grid.unitCount(), settings.passes_per_unit(), settings.tile_size(),
+                                settings.priority()));
     logInfo("job.submitted", {field("job", id), field("name", settings.name()),
                               field("size", absl::StrFormat("%dx%d", grid.width(), grid.height())),
                               field("passes", settings.passes()), field("units", grid.unitCount()),
                               field("priority", settings.priority())});
+    // The submission consumes the touches of its blobs (the uses that led to it): a touch
+    // from now on means another submission is under way (see Retention::deletedJobBlobs).
+    for (const v1::BundleFile& file : job->description.bundle().files())
+        m_blobsTouchedAt.erase(file.sha256());
     m_jobs[id] = std::move(job);
+    saveEventLogsLocked(id);
     m_workAvailable.notify_all();
     return statusLocked(*m_jobs[id]);
 }
@@ -440,6 +480,7 @@ v1::JobStatus Coordinator::statusLocked(const Job& job) const {
         status.set_photon_radius(
             reportedProgressiveRadius(schedule.initial_radius(), schedule.alpha(), passesDone));
     }
+    describeEstimate(film, status);
     status.set_units_restored(job.restored);
     status.set_units_merged_this_run(job.mergedThisRun);
     status.set_results_discarded(job.discarded);
@@ -449,19 +490,26 @@ v1::JobStatus Coordinator::statusLocked(const Job& job) const {
     status.set_pass_data_builds(job.passDataBuilds);
     status.set_invalid_samples(film.invalidSamples());
     status.set_elapsed_seconds(m_clock->wallSeconds() - job.createdAt);
-    double rate = 0.0;
+    double rate = 0.0, rayRate = 0.0;
     if (job.firstMergeAt) {
         const double seconds = m_clock->monotonicSeconds() - *job.firstMergeAt;
-        if (seconds > 0.05) rate = job.samplesMergedThisRun / seconds;
+        if (seconds > 0.05) {
+            rate = job.samplesMergedThisRun / seconds;
+            rayRate = job.raysMergedThisRun / seconds;
+        }
     }
     status.set_samples_per_second(rate);
+    status.set_rays_per_second(rayRate);
+    status.set_paused(job.state == v1::JOB_STATE_RUNNING && m_scheduler->paused(job.id));
+    status.set_submitted_at_unix_seconds(job.createdAt);
     const uint64_t totalSamples =
-        uint64_t(job.grid.width()) * job.grid.height() * job.grid.passes();
+        uint64_t(job.grid.width()) * job.grid.height() * film.expectedPasses();
     if (job.state != v1::JOB_STATE_RUNNING)
         status.set_eta_seconds(0.0);
     else
-        status.set_eta_seconds(rate > 0 ? double(totalSamples - film.samplesMerged()) / rate
-                                        : -1.0);
+        status.set_eta_seconds(
+            rate > 0 ? double(totalSamples - std::min(totalSamples, film.samplesMerged())) / rate
+                     : -1.0);
     return status;
 }
 
@@ -488,9 +536,15 @@ void Coordinator::endJobLocked(Job& job, v1::JobState state, const std::string& 
     if (state != v1::JOB_STATE_DONE) job.film->release();
     // Memory first, store last: if the write fails (a full disk) the job has ended in this
     // process, and a restart finds it as the store says (a finished film is finished again).
+    if (state == v1::JOB_STATE_CANCELLED)
+        eventLocked(job, v1::JOB_EVENT_CANCELLED, error);
+    else
+        eventLocked(job, v1::JOB_EVENT_FINISHED,
+                    std::string(farm::jobStateName(state)) + (error.empty() ? "" : ": " + error));
     if (m_durableWriteHooks.before) m_durableWriteHooks.before();
     m_store.setJobState(job.id, state, error, job.finishedAt);
     if (m_durableWriteHooks.after) m_durableWriteHooks.after();
+    saveEventLogsLocked(job.id);
     (state == v1::JOB_STATE_DONE ? logInfo : logWarning)(
         "job.ended",
         {field("job", job.id), field("state", farm::jobStateName(state)), field("error", error),
@@ -504,6 +558,271 @@ v1::JobStatus Coordinator::cancel(uint64_t jobId) {
     if (job.state == v1::JOB_STATE_RUNNING && !job.completing)
         endJobLocked(job, v1::JOB_STATE_CANCELLED, "cancelled by a client");
     return statusLocked(job);
+}
+
+void Coordinator::eventLocked(Job& job, v1::JobEventKind kind, std::string message,
+                              uint64_t workerId, std::optional<uint32_t> unitIndex) {
+    job.events.add(m_clock->wallSeconds(), kind, std::move(message), workerId, unitIndex);
+}
+
+void Coordinator::saveEventLogsLocked(std::optional<uint64_t> jobId) {
+    for (auto& [id, job] : m_jobs) {
+        if ((jobId && id != *jobId) || !job->events.changed()) continue;
+        try {
+            m_store.saveJobLog(id, job->events.record());
+            job->events.markSaved();
+        } catch (const StorageError& e) {
+            logWarning("job.log_not_saved", {field("job", id), field("error", e.what())});
+        }
+    }
+}
+
+void Coordinator::saveChangedEventLogs() {
+    // Copied under the lock, written without it: many jobs' logs take many fsyncs.
+    std::vector<std::pair<uint64_t, v1::JobEventLog>> changed;
+    {
+        std::lock_guard lock(m_mutex);
+        for (auto& [id, job] : m_jobs) {
+            if (!job->events.changed()) continue;
+            changed.emplace_back(id, job->events.record());
+            job->events.markSaved();
+        }
+    }
+    for (const auto& [id, log] : changed) {
+        try {
+            m_store.saveJobLog(id, log);
+        } catch (const StorageError& e) {
+            logWarning("job.log_not_saved", {field("job", id), field("error", e.what())});
+            std::lock_guard lock(m_mutex);
+            if (auto it = m_jobs.find(id); it != m_jobs.end()) it->second->events.markChanged();
+        }
+    }
+}
+
+Coordinator::Job& Coordinator::runningJobLocked(uint64_t jobId, const char* action,
+                                                const char* done) {
+    Job& job = jobLocked(jobId);
+    if (job.state != v1::JOB_STATE_RUNNING || job.completing)
+        throw FarmError(
+            Kind::FailedPrecondition,
+            absl::StrFormat("cannot %s job %u: it is %s; only a running job can be %s", action,
+                            jobId, job.completing ? "finishing" : farm::jobStateName(job.state),
+                            done));
+    return job;
+}
+
+v1::JobStatus Coordinator::setPaused(uint64_t jobId, bool paused) {
+    std::lock_guard lock(m_mutex);
+    Job& job = runningJobLocked(jobId, paused ? "pause" : "resume", paused ? "paused" : "resumed");
+    if (m_scheduler->paused(jobId) == paused) return statusLocked(job);
+    m_store.setJobPaused(jobId, paused);
+    m_scheduler->setPaused(jobId, paused);
+    const LeaseScheduler::JobLeases leases = m_scheduler->jobLeases(jobId);
+    eventLocked(job, paused ? v1::JOB_EVENT_PAUSED : v1::JOB_EVENT_RESUMED,
+                paused ? absl::StrFormat("no new leases; %u units out may finish", leases.leased)
+                       : std::string("leasing again"));
+    saveEventLogsLocked(jobId);
+    logInfo(paused ? "job.paused" : "job.resumed_by_client", {field("job", jobId)});
+    if (!paused) m_workAvailable.notify_all();
+    return statusLocked(job);
+}
+
+v1::JobStatus Coordinator::setPriority(uint64_t jobId, int32_t priority) {
+    std::lock_guard lock(m_mutex);
+    Job& job = runningJobLocked(jobId, "change the priority of", "given a new priority");
+    const int32_t before = job.description.settings().priority();
+    if (before == priority) return statusLocked(job);
+    v1::JobDescription changed = job.description;
+    changed.mutable_settings()->set_priority(priority);
+    m_store.setJobDescription(jobId, changed);
+    job.description = std::move(changed);
+    m_scheduler->setPriority(jobId, priority);
+    eventLocked(job, v1::JOB_EVENT_PRIORITY_CHANGED,
+                absl::StrFormat("priority %d -> %d", before, priority));
+    saveEventLogsLocked(jobId);
+    logInfo("job.priority", {field("job", jobId), field("from", before), field("to", priority)});
+    m_workAvailable.notify_all();
+    return statusLocked(job);
+}
+
+v1::JobStatus Coordinator::retry(uint64_t jobId) {
+    std::lock_guard control(m_controlMutex);
+    Job* job = nullptr;
+    uint64_t memory = 0;
+    {
+        std::lock_guard lock(m_mutex);
+        job = &jobLocked(jobId);
+        if (job->state == v1::JOB_STATE_RUNNING || job->state == v1::JOB_STATE_DONE)
+            throw FarmError(
+                Kind::FailedPrecondition,
+                absl::StrFormat("cannot retry job %u: it is %s; only a failed or cancelled job "
+                                "can run again",
+                                jobId, farm::jobStateName(job->state)));
+        if (job->grid.unitCount() == 0)
+            throw FarmError(Kind::FailedPrecondition,
+                            absl::StrFormat("cannot retry job %u: its record could not be "
+                                            "resumed (%s); submit the scene again",
+                                            jobId, job->error));
+        memory = jobMemoryBytes(job->grid.width(), job->grid.height(), job->grid.unitCount());
+        if (m_memoryInUse + memory > m_options.maxMemoryBytes)
+            throw FarmError(Kind::ResourceExhausted,
+                            absl::StrFormat("cannot retry job %u now: it needs about %s of "
+                                            "coordinator memory; running jobs hold %s of the %s "
+                                            "allowed (--max-memory)",
+                                            jobId, mebibytes(memory), mebibytes(m_memoryInUse),
+                                            mebibytes(m_options.maxMemoryBytes)));
+    }
+    // The units in the job's checkpoint stay merged: their sums are exact, so finishing the
+    // others gives the bytes of a fresh job. A missing or unreadable checkpoint starts afresh.
+    // Read without the lock (a film may be large); the write mutex keeps checkpoint writes
+    // out, and m_controlMutex keeps deleteJob() away.
+    std::lock_guard writeLock(job->film->writeMutex());
+    std::optional<Checkpoint> checkpoint;
+    const std::string checkpointPath = jobDirectory(jobId) + "/film.ckpt";
+    if (fs::exists(checkpointPath)) {
+        try {
+            checkpoint = job->film->readFile();
+        } catch (const Error& e) {
+            logWarning("checkpoint.unreadable", {field("job", jobId), field("error", e.what()),
+                                                 field("action", "rendering it again")});
+        }
+    }
+    std::lock_guard lock(m_mutex);
+    auto it = m_jobs.find(jobId);
+    if (it == m_jobs.end() || it->second.get() != job)
+        throw FarmError(Kind::NotFound, absl::StrFormat("no job %u (deleted)", jobId));
+    if (job->state == v1::JOB_STATE_RUNNING || job->state == v1::JOB_STATE_DONE)
+        throw FarmError(Kind::FailedPrecondition,
+                        absl::StrFormat("cannot retry job %u: it is %s already", jobId,
+                                        farm::jobStateName(job->state)));
+    if (m_memoryInUse + memory > m_options.maxMemoryBytes)
+        throw FarmError(Kind::ResourceExhausted,
+                        absl::StrFormat("cannot retry job %u now: not enough coordinator memory "
+                                        "(--max-memory)",
+                                        jobId));
+    // Stored first: should that fail, nothing has changed.
+    m_store.clearUnitAttempts(jobId);
+    m_store.setJobPaused(jobId, false);
+    m_store.setJobState(jobId, v1::JOB_STATE_RUNNING, "", 0);
+    const v1::JobState before = job->state;
+    if (checkpoint)
+        job->film->restore(std::move(*checkpoint), true);
+    else
+        job->film->startEmpty();
+    job->state = v1::JOB_STATE_RUNNING;
+    job->error.clear();
+    job->finishedAt = 0;
+    job->memoryBytes = memory;
+    m_memoryInUse += memory;
+    job->restored = job->film->mergedCount();
+    job->mergedThisRun = 0;
+    job->firstMergeAt.reset();
+    job->samplesMergedThisRun = job->raysMergedThisRun = 0;
+    m_scheduler->removeJob(jobId);
+    m_scheduler->addJob(jobId, job->description.settings().priority(), job->grid,
+                        job->film->merged(), {}, true);
+    m_scheduler->setLeaseLimit(jobId, job->film->leaseLimit());
+    eventLocked(*job, v1::JOB_EVENT_RETRIED,
+                absl::StrFormat("was %s; %u of %u units kept from its checkpoint, the rest "
+                                "queued with their attempts forgotten",
+                                farm::jobStateName(before), job->restored, job->grid.unitCount()));
+    saveEventLogsLocked(jobId);
+    logInfo("job.retried", {field("job", jobId), field("units_kept", job->restored),
+                            field("units_total", job->grid.unitCount())});
+    // Should every unit be in the checkpoint already, the next checkpoint round ends the job.
+    m_workAvailable.notify_all();
+    return statusLocked(*job);
+}
+
+v1::DeleteJobResponse Coordinator::deleteJob(uint64_t jobId, bool cancelRunning) {
+    std::lock_guard control(m_controlMutex);
+    v1::DeleteJobResponse response;
+    response.set_job_id(jobId);
+    std::unique_ptr<Job> deleted;
+    std::set<std::string> jobBlobs, referenced;
+    std::unordered_map<std::string, double> touchedAt;
+    {
+        std::lock_guard lock(m_mutex);
+        Job& job = jobLocked(jobId);
+        if (job.state == v1::JOB_STATE_RUNNING) {
+            if (job.completing)
+                throw FarmError(Kind::FailedPrecondition,
+                                absl::StrFormat("job %u is finishing (its final checkpoint is "
+                                                "being written); try again in a moment",
+                                                jobId));
+            if (!cancelRunning)
+                throw FarmError(
+                    Kind::FailedPrecondition,
+                    absl::StrFormat("job %u is running: cancel it first (alphorn cancel %u), "
+                                    "or delete it with --cancel",
+                                    jobId, jobId));
+        }
+        if (job.state == v1::JOB_STATE_RUNNING) {
+            endJobLocked(job, v1::JOB_STATE_CANCELLED, "cancelled by a client to delete it");
+            response.set_cancelled(true);
+        }
+        // Should this fail, the job is still there (cancelled), as the store says.
+        m_store.removeJob(jobId);
+        job.deleted = true;
+        for (const v1::BundleFile& file : job.description.bundle().files())
+            jobBlobs.insert(file.sha256());
+        m_scheduler->removeJob(jobId);
+        auto it = m_jobs.find(jobId);
+        deleted = std::move(it->second);
+        m_jobs.erase(it);
+        for (const auto& [id, other] : m_jobs)
+            for (const v1::BundleFile& file : other->description.bundle().files())
+                referenced.insert(file.sha256());
+        touchedAt = m_blobsTouchedAt;
+    }
+    {
+        // A checkpoint write of the job in progress finishes before its directory goes.
+        std::lock_guard writeLock(deleted->film->writeMutex());
+        std::error_code ignored;
+        fs::remove_all(jobDirectory(jobId), ignored);
+    }
+    for (const std::string& sha : Retention::deletedJobBlobs(jobBlobs, referenced, touchedAt)) {
+        if (!m_blobs.has(sha)) continue;
+        response.set_blob_bytes_removed(response.blob_bytes_removed() + m_blobs.size(sha));
+        response.set_blobs_removed(response.blobs_removed() + 1);
+        m_blobs.remove(sha);
+    }
+    logInfo("job.deleted", {field("job", jobId), field("cancelled", response.cancelled()),
+                            field("blobs", response.blobs_removed()),
+                            field("bytes", response.blob_bytes_removed())});
+    std::lock_guard lock(m_mutex);
+    m_deletedJobs.push_back(std::move(deleted));
+    return response;
+}
+
+v1::GetJobLogResponse Coordinator::jobLog(uint64_t jobId, uint64_t afterSequence) {
+    std::lock_guard lock(m_mutex);
+    const Job& job = jobLocked(jobId);
+    v1::GetJobLogResponse response;
+    for (v1::JobEvent& event : job.events.after(afterSequence))
+        *response.add_events() = std::move(event);
+    response.set_events_dropped(job.events.dropped());
+    response.set_state(job.state);
+    return response;
+}
+
+v1::WorkerInfo Coordinator::setWorkerDraining(uint64_t workerId, bool draining) {
+    std::lock_guard lock(m_mutex);
+    auto it = m_workers.find(workerId);
+    if (it == m_workers.end())
+        throw FarmError(
+            Kind::UnknownWorker,
+            absl::StrFormat("no worker %u (alphorn workers --all lists them)", workerId));
+    WorkerRecord& worker = it->second;
+    if (worker.draining != draining) {
+        m_store.setWorkerDraining(workerId, draining);
+        worker.draining = draining;
+        logInfo(draining ? "worker.draining" : "worker.undrained",
+                {field("worker", workerId), field("by", "client"),
+                 field("leases", m_scheduler->leaseCount(workerId))});
+        m_workAvailable.notify_all();
+    }
+    return workerInfoLocked(workerId, worker);
 }
 
 Coordinator::ImageSnapshot Coordinator::snapshot(uint64_t jobId, bool preview) {
@@ -568,6 +887,7 @@ Coordinator::WorkerRecord* Coordinator::touchWorkerLocked(uint64_t workerId) {
     if (it == m_workers.end()) return nullptr;
     m_scheduler->touchWorker(workerId);
     it->second.lastContactWall = m_clock->wallSeconds();
+    it->second.left = false;
     return &it->second;
 }
 
@@ -575,14 +895,35 @@ std::vector<v1::WorkerInfo> Coordinator::listWorkers(bool includeDead) {
     std::lock_guard lock(m_mutex);
     std::vector<v1::WorkerInfo> result;
     for (const auto& [id, worker] : m_workers) {
-        v1::WorkerInfo info = worker.info;
-        const double since = m_scheduler->secondsSinceSeen(id);
-        info.set_seconds_since_seen(since);
-        info.set_leases(m_scheduler->leaseCount(id));
-        info.set_alive(since < 3 * m_options.leaseSeconds);
+        v1::WorkerInfo info = workerInfoLocked(id, worker);
         if (info.alive() || includeDead) result.push_back(std::move(info));
     }
     return result;
+}
+
+v1::WorkerInfo Coordinator::workerInfoLocked(uint64_t workerId, const WorkerRecord& worker) const {
+    v1::WorkerInfo info = worker.info;
+    const double since = m_scheduler->secondsSinceSeen(workerId);
+    info.set_seconds_since_seen(since);
+    info.set_leases(m_scheduler->leaseCount(workerId));
+    info.set_alive(!worker.left && since < 3 * m_options.leaseSeconds);
+    // A worker calls every heartbeat interval while it runs (also when idle), so a silence of
+    // two intervals says it is probably gone, long before its leases expire.
+    if (worker.left)
+        info.set_state(v1::WORKER_STATE_LEFT);
+    else if (!info.alive())
+        info.set_state(v1::WORKER_STATE_DEAD);
+    else if (since > silentAfterSeconds())
+        info.set_state(v1::WORKER_STATE_SILENT);
+    else
+        info.set_state(v1::WORKER_STATE_ALIVE);
+    info.set_draining(worker.draining || worker.exiting);
+    info.set_exiting(worker.exiting);
+    if (worker.renderSeconds > 0) {
+        info.set_samples_per_second(double(worker.samples) / worker.renderSeconds);
+        info.set_rays_per_second(double(worker.rays) / worker.renderSeconds);
+    }
+    return info;
 }
 
 v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId,
@@ -590,12 +931,18 @@ v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId,
     std::unique_lock lock(m_mutex);
     v1::AcquireWorkResponse response;
     for (;;) {
-        if (!touchWorkerLocked(workerId))
+        const WorkerRecord* worker = touchWorkerLocked(workerId);
+        if (!worker)
             throw FarmError(Kind::UnknownWorker,
                             absl::StrFormat("unknown worker %u: register again", workerId));
         if (m_stopping) return response;
-        if (const auto lease = m_scheduler->lease(workerId)) {
-            const Job& job = *m_jobs.at(lease->jobId);
+        // A drained worker waits out the long poll (undrain wakes it) rather than spinning.
+        response.set_draining(worker->draining);
+        const bool mayLease = !worker->draining && !worker->exiting;
+        if (const auto lease = mayLease ? m_scheduler->lease(workerId) : std::nullopt) {
+            Job& job = *m_jobs.at(lease->jobId);
+            eventLocked(job, v1::JOB_EVENT_LEASED, absl::StrFormat("lease %u", lease->leaseId),
+                        workerId, lease->unitIndex);
             response.set_has_work(true);
             response.set_lease_id(lease->leaseId);
             *response.mutable_unit() =
@@ -616,10 +963,23 @@ v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId,
 v1::HeartbeatResponse Coordinator::heartbeat(const v1::HeartbeatRequest& request) {
     std::lock_guard lock(m_mutex);
     v1::HeartbeatResponse response;
-    if (!touchWorkerLocked(request.worker_id())) {
+    // A heartbeat of the stopping process that arrives after its goodbye leaves it gone.
+    const auto known = m_workers.find(request.worker_id());
+    const bool leftBefore = known != m_workers.end() && known->second.left;
+    WorkerRecord* worker = touchWorkerLocked(request.worker_id());
+    if (!worker) {
         response.set_unknown_worker(true);
         for (uint64_t lease : request.lease_ids()) response.add_drop_lease_ids(lease);
         return response;
+    }
+    if (request.draining() && !worker->exiting) {
+        worker->exiting = true;
+        logInfo("worker.draining", {field("worker", request.worker_id()), field("by", "SIGTERM")});
+    }
+    if (leftBefore && request.draining() && request.lease_ids_size() == 0) worker->left = true;
+    if (request.exiting() && request.lease_ids_size() == 0) {
+        worker->left = true;
+        logInfo("worker.left", {field("worker", request.worker_id())});
     }
     for (int i = 0; i < request.lease_ids_size(); ++i) {
         const uint64_t leaseId = request.lease_ids(i);
@@ -643,7 +1003,7 @@ v1::HeartbeatResponse Coordinator::heartbeat(const v1::HeartbeatRequest& request
 }
 
 void Coordinator::recordFailureLocked(Job& job, const LeaseScheduler::Failure& failure,
-                                      const std::string& message) {
+                                      const std::string& message, uint64_t workerId) {
     try {
         if (m_durableWriteHooks.before) m_durableWriteHooks.before();
         m_store.setUnitAttempts(job.id, failure.unitIndex, failure.attempts, message);
@@ -656,7 +1016,14 @@ void Coordinator::recordFailureLocked(Job& job, const LeaseScheduler::Failure& f
     }
     logWarning("unit.failed", {field("job", job.id), field("unit", failure.unitIndex),
                                field("attempt", failure.attempts), field("error", message)});
+    eventLocked(job, v1::JOB_EVENT_FAILED,
+                absl::StrFormat("attempt %u: %s", failure.attempts, message), workerId,
+                failure.unitIndex);
     if (failure.poisoned) {
+        eventLocked(job, v1::JOB_EVENT_POISONED,
+                    absl::StrFormat("unit %u failed %u times (the limit)", failure.unitIndex,
+                                    failure.attempts),
+                    workerId, failure.unitIndex);
         // A poison unit: it fails its job, never the farm.
         try {
             endJobLocked(job, v1::JOB_STATE_FAILED,
@@ -680,7 +1047,8 @@ void Coordinator::expireLeases() {
             *m_jobs.at(expired.jobId), failure,
             absl::StrFormat("lease expired: worker %u (%s) stopped responding while rendering "
                             "unit %u (crashed, hung or lost its network)",
-                            expired.workerId, workerName, expired.unitIndex));
+                            expired.workerId, workerName, expired.unitIndex),
+            expired.workerId);
     }
 }
 
@@ -692,7 +1060,7 @@ uint64_t Coordinator::maxResultBytes(uint64_t jobId) const {
     // The largest unit block: a full tile plus the filter border on each side.
     const uint64_t side =
         uint64_t(job.description.settings().tile_size()) + 2 * uint64_t(job.filterBorder);
-    return ZSTD_compressBound(side * side * sizeof(PixelSum)) + 4096;
+    return ZSTD_compressBound(side * side * FilmBlock(0, 0, 0, 0).bytesPerPixel()) + 4096;
 }
 
 v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
@@ -718,13 +1086,16 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
                 if (!m_scheduler->handBack(jobId, unitIndex, leaseId)) return v1::RESULT_DISCARDED;
                 logInfo("unit.handed_back", {field("job", jobId), field("unit", unitIndex),
                                              field("worker", header.worker_id())});
+                eventLocked(job, v1::JOB_EVENT_HANDED_BACK, "the worker is stopping",
+                            header.worker_id(), unitIndex);
                 m_workAvailable.notify_all();
             } else {
                 const auto failure = m_scheduler->failAttempt(jobId, unitIndex, leaseId);
                 if (!failure) return v1::RESULT_DISCARDED;
                 recordFailureLocked(
                     job, *failure,
-                    absl::StrFormat("worker %u: %s", header.worker_id(), header.error()));
+                    absl::StrFormat("worker %u: %s", header.worker_id(), header.error()),
+                    header.worker_id());
             }
             return v1::RESULT_RECORDED;
         }
@@ -771,14 +1142,28 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
             ++job.discarded;
             return v1::RESULT_DISCARDED;
         }
+        const uint32_t leaseLimit = job.film->leaseLimit();
         job.film->merge(unitIndex, block);
+        if (job.film->leaseLimit() != leaseLimit) {
+            // A decision point passed: the units up to the next one may be leased now.
+            m_scheduler->setLeaseLimit(jobId, job.film->leaseLimit());
+            m_workAvailable.notify_all();
+        }
         ++job.mergedThisRun;
         if (!job.firstMergeAt) job.firstMergeAt = m_clock->monotonicSeconds();
         if (header.built_pass_data()) job.passDataBuilds += unit.passEnd - unit.passBegin;
-        job.samplesMergedThisRun +=
+        const uint64_t samples =
             uint64_t(unit.tile.width()) * unit.tile.height() * (unit.passEnd - unit.passBegin);
-        if (auto worker = m_workers.find(header.worker_id()); worker != m_workers.end())
-            worker->second.info.set_units_merged(worker->second.info.units_merged() + 1);
+        job.samplesMergedThisRun += samples;
+        job.raysMergedThisRun += header.rays();
+        if (auto worker = m_workers.find(header.worker_id()); worker != m_workers.end()) {
+            WorkerRecord& record = worker->second;
+            record.info.set_units_merged(record.info.units_merged() + 1);
+            record.samples += samples;
+            record.rays += header.rays();
+            record.renderSeconds += std::max(0.0, header.render_seconds());
+        }
+        eventLocked(job, v1::JOB_EVENT_MERGED, "", header.worker_id(), unitIndex);
         if (job.film->complete()) {
             job.completing = true;
             completed = &job;
@@ -819,7 +1204,7 @@ void Coordinator::writeJobCheckpoint(Job& job, const JobFilm::Copy& copy) {
     std::lock_guard writeLock(job.film->writeMutex());
     {
         std::lock_guard lock(m_mutex);
-        if (!job.film->newerThanCheckpoint(copy.count)) return;
+        if (job.deleted || !job.film->newerThanCheckpoint(copy.count)) return;
     }
     const double start = m_clock->monotonicSeconds();
     try {
@@ -833,6 +1218,8 @@ void Coordinator::writeJobCheckpoint(Job& job, const JobFilm::Copy& copy) {
     }
     std::lock_guard lock(m_mutex);
     job.film->checkpointWritten(copy.count);
+    eventLocked(job, v1::JOB_EVENT_CHECKPOINTED,
+                absl::StrFormat("%u of %u units", copy.count, job.grid.unitCount()));
     logInfo("checkpoint.written",
             {field("job", job.id), field("units_merged", copy.count),
              field("units_total", job.grid.unitCount()),

@@ -5,6 +5,7 @@
 //   lease_scheduler.h  units are queued, leased, renewed, fenced, failed and re-adopted
 //   job_film.h         results are merged into the job's film, checkpointed and read back
 //   retention.h        ended jobs, unused blobs and silent workers are forgotten
+//   event_log.h        each job's bounded log of what happened to it
 // The gRPC services (services.h) translate calls into these methods.
 #pragma once
 
@@ -15,6 +16,7 @@
 #include "common/render/film.h"
 #include "coordinator/blob_store.h"
 #include "coordinator/clock.h"
+#include "coordinator/event_log.h"
 #include "coordinator/farm_error.h"
 #include "coordinator/job_film.h"
 #include "coordinator/job_store.h"
@@ -85,6 +87,27 @@ class Coordinator {
     std::vector<v1::JobStatus> listJobs(uint64_t jobId);  // throws NotFound for an unknown id
     v1::JobStatus cancel(uint64_t jobId);
     std::vector<v1::WorkerInfo> listWorkers(bool includeDead);
+
+    // Job and worker control. Each throws FarmError (NotFound for an unknown job,
+    // FailedPrecondition for a change the job's state does not allow, with the reason) and
+    // records the change durably and in the job's event log.
+    // Runs a failed or cancelled job again under its id: units in its checkpoint stay merged,
+    // the others are queued with their attempts forgotten (same bytes as a fresh job).
+    v1::JobStatus retry(uint64_t jobId);
+    // A paused job gets no new leases; its leases out may finish and merge.
+    v1::JobStatus setPaused(uint64_t jobId, bool paused);
+    v1::JobStatus setPriority(uint64_t jobId, int32_t priority);
+    // Deletes the job's record, log, films and bundle and the blobs only it used. A running job
+    // is cancelled first when `cancelRunning`, refused otherwise.
+    v1::DeleteJobResponse deleteJob(uint64_t jobId, bool cancelRunning);
+    v1::GetJobLogResponse jobLog(uint64_t jobId, uint64_t afterSequence);
+    // A draining worker is given no new unit (it finishes those it holds). Throws UnknownWorker.
+    v1::WorkerInfo setWorkerDraining(uint64_t workerId, bool draining);
+    // Seconds between a worker's heartbeats (told at registration).
+    double heartbeatIntervalSeconds() const { return std::max(0.1, m_options.leaseSeconds / 4); }
+    // Silence after which a worker is listed SILENT: two heartbeat intervals, at least 3 s (an
+    // idle worker's long poll lasts 2 s).
+    double silentAfterSeconds() const { return std::max(3.0, 2 * heartbeatIntervalSeconds()); }
     struct ImageSnapshot {
         FilmBlock film;
         v1::JobStatus status;
@@ -145,10 +168,19 @@ class Coordinator {
         uint64_t samplesMergedThisRun = 0;
         uint64_t passDataBuilds = 0;  // see JobStatus.pass_data_builds
         uint64_t memoryBytes = 0;     // jobMemoryBytes() while running, 0 once ended
+        uint64_t raysMergedThisRun = 0;
+        EventLog events;
+        bool deleted = false;  // removed by a client; no checkpoint may be written any more
     };
     struct WorkerRecord {
         v1::WorkerInfo info;
         double lastContactWall = 0;  // wall clock of the last call, or of this process's start
+        bool draining = false;       // drained by a client (stored)
+        bool exiting = false;        // said it is stopping (SIGTERM)
+        bool left = false;           // said it exits now
+        // Its merged units in this process: samples, rays and its own render seconds.
+        uint64_t samples = 0, rays = 0;
+        double renderSeconds = 0;
     };
 
     void resume();
@@ -169,9 +201,20 @@ class Coordinator {
     v1::JobStatus statusLocked(const Job& job) const;
     // Stores a failed attempt counted by the scheduler; fails the job of a poison unit.
     void recordFailureLocked(Job& job, const LeaseScheduler::Failure& failure,
-                             const std::string& message);
+                             const std::string& message, uint64_t workerId);
     void endJobLocked(Job& job, v1::JobState state, const std::string& error);
     WorkerRecord* touchWorkerLocked(uint64_t workerId);
+    v1::WorkerInfo workerInfoLocked(uint64_t workerId, const WorkerRecord& worker) const;
+    // Appends to the job's event log (at the clock's wall time).
+    void eventLocked(Job& job, v1::JobEventKind kind, std::string message, uint64_t workerId = 0,
+                     std::optional<uint32_t> unitIndex = std::nullopt);
+    // Stores the event logs that changed (every job, or one); a failure is logged, not thrown:
+    // a log is worth less than the work it records.
+    void saveEventLogsLocked(std::optional<uint64_t> jobId = std::nullopt);
+    // The same for every job, writing without m_mutex (the checkpoint rounds and stop()).
+    void saveChangedEventLogs();
+    // The job, refusing with FailedPrecondition unless it is running (for pause and priority).
+    Job& runningJobLocked(uint64_t jobId, const char* action, const char* done);
 
     CoordinatorOptions m_options;
     std::shared_ptr<const Clock> m_clock;
@@ -179,9 +222,15 @@ class Coordinator {
     JobStore m_store;
     BlobStore m_blobs;
     mutable std::mutex m_mutex;
+    // Taken before m_mutex by retry() and deleteJob(), which do file work without m_mutex, and
+    // by pruneFinishedJobs(), which must not free a job retry() holds.
+    std::mutex m_controlMutex;
     std::condition_variable m_workAvailable;
     std::unique_ptr<LeaseScheduler> m_scheduler;
     std::map<uint64_t, std::unique_ptr<Job>> m_jobs;
+    // Jobs deleted by a client, freed by the next tick(): the background thread may still hold
+    // a pointer to one from the tick in progress (checkpointDirtyJobs).
+    std::vector<std::unique_ptr<Job>> m_deletedJobs;
     std::map<uint64_t, WorkerRecord> m_workers;
     std::unordered_map<std::string, double> m_blobsTouchedAt;  // sha256 -> wall clock
     uint64_t m_memoryInUse = 0;                                // sum of running jobs' memoryBytes

@@ -181,6 +181,29 @@ class CoordinatorJob : public ::testing::Test {
     CoordinatorOptions m_options;
 };
 
+// Runs `change` and returns the FailedPrecondition message it throws ("" when it throws none).
+template <typename Change>
+std::string refusal(Change change) {
+    try {
+        change();
+    } catch (const FarmError& e) {
+        EXPECT_EQ(e.kind, FarmError::Kind::FailedPrecondition) << e.what();
+        return e.what();
+    }
+    return "";
+}
+
+std::vector<v1::JobEventKind> eventKinds(const v1::GetJobLogResponse& log) {
+    std::vector<v1::JobEventKind> kinds;
+    for (const v1::JobEvent& event : log.events()) kinds.push_back(event.kind());
+    return kinds;
+}
+
+bool hasEvent(const v1::GetJobLogResponse& log, v1::JobEventKind kind) {
+    const auto kinds = eventKinds(log);
+    return std::find(kinds.begin(), kinds.end(), kind) != kinds.end();
+}
+
 TEST_F(CoordinatorJob, ReverseOrderDuplicatesAndRestartGiveTheLocalFilm) {
     auto scene = loadScene((m_dir / "scene/s.xml").string());
     RenderSettings settings;
@@ -693,6 +716,8 @@ TEST_F(CoordinatorJob, ADamagedJobRecordFailsOnlyThatJob) {
     renderAllUnits(coordinator, coordinator.registerWorker(v1::RegisterRequest()));
     EXPECT_EQ(coordinator.listJobs(healthy).at(0).state(), v1::JOB_STATE_DONE);
     EXPECT_EQ(coordinator.snapshot(healthy, false).film.serialize(), localFilm());
+    const std::string message = refusal([&] { coordinator.retry(damaged); });
+    EXPECT_NE(message.find("its record could not be resumed"), std::string::npos) << message;
     coordinator.stop();
 }
 
@@ -711,6 +736,313 @@ TEST_F(CoordinatorJob, AFinishedJobWhoseCheckpointIsLostIsRenderedAgain) {
     EXPECT_EQ(status.units_done(), 0u);
     renderAllUnits(coordinator, coordinator.registerWorker(v1::RegisterRequest()));
     EXPECT_EQ(coordinator.snapshot(jobId, false).film.serialize(), localFilm());
+    coordinator.stop();
+}
+
+// ---- job and worker control ---------------------------------------------------------------
+
+// Paused: no new leases, while the lease already out merges; resumed: leasing again. The pause
+// survives a restart; a job that ended cannot be paused or resumed.
+TEST_F(CoordinatorJob, APausedJobLeasesNothingNewButMergesWhatIsOut) {
+    uint64_t jobId = 0;
+    {
+        Coordinator coordinator(m_options);
+        jobId = coordinator.submit(upload(coordinator)).job_id();
+        const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+        const v1::AcquireWorkResponse out =
+            coordinator.acquire(worker, std::chrono::steady_clock::now());
+        ASSERT_TRUE(out.has_work());
+        EXPECT_TRUE(coordinator.setPaused(jobId, true).paused());
+        EXPECT_FALSE(coordinator.acquire(worker, std::chrono::steady_clock::now()).has_work())
+            << "a paused job leased a unit";
+        std::string compressed;
+        EXPECT_EQ(coordinator.report(render(out, worker, compressed), compressed),
+                  v1::RESULT_MERGED);
+        EXPECT_EQ(coordinator.listJobs(jobId).at(0).units_done(), 1u);
+        coordinator.stop();
+    }
+    Coordinator coordinator(m_options);
+    const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+    EXPECT_TRUE(coordinator.listJobs(jobId).at(0).paused()) << "the pause was not stored";
+    EXPECT_FALSE(coordinator.acquire(worker, std::chrono::steady_clock::now()).has_work());
+    const v1::JobStatus resumed = coordinator.setPaused(jobId, false);
+    EXPECT_FALSE(resumed.paused());
+    EXPECT_EQ(resumed.state(), v1::JOB_STATE_RUNNING);
+    renderAllUnits(coordinator, worker);
+    EXPECT_EQ(coordinator.listJobs(jobId).at(0).state(), v1::JOB_STATE_DONE);
+    EXPECT_EQ(coordinator.snapshot(jobId, false).film.serialize(), localFilm());
+    const std::string message = refusal([&] { coordinator.setPaused(jobId, true); });
+    EXPECT_NE(message.find("it is done; only a running job can be paused"), std::string::npos)
+        << message;
+    EXPECT_NE(refusal([&] { coordinator.setPaused(jobId, false); }), "");
+    coordinator.stop();
+}
+
+// A new priority reorders the queue at once and is stored; an ended job keeps its own.
+TEST_F(CoordinatorJob, APriorityChangeReordersTheQueue) {
+    uint64_t first = 0, second = 0;
+    {
+        Coordinator coordinator(m_options);
+        first = coordinator.submit(upload(coordinator)).job_id();
+        second = coordinator.submit(upload(coordinator)).job_id();
+        const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+        EXPECT_EQ(coordinator.acquire(worker, std::chrono::steady_clock::now()).unit().job_id(),
+                  first);
+        EXPECT_EQ(coordinator.setPriority(second, 7).settings().priority(), 7);
+        EXPECT_EQ(coordinator.acquire(worker, std::chrono::steady_clock::now()).unit().job_id(),
+                  second)
+            << "the higher priority did not go first";
+        coordinator.stop();
+    }
+    Coordinator coordinator(m_options);
+    EXPECT_EQ(coordinator.listJobs(second).at(0).settings().priority(), 7) << "not stored";
+    const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+    EXPECT_EQ(coordinator.acquire(worker, std::chrono::steady_clock::now()).unit().job_id(),
+              second);
+    coordinator.cancel(first);
+    const std::string message = refusal([&] { coordinator.setPriority(first, 3); });
+    EXPECT_NE(message.find("it is cancelled"), std::string::npos) << message;
+    coordinator.stop();
+}
+
+// A cancelled job run again keeps the units of its checkpoint, renders the rest and ends with
+// the bytes of a fresh job; units merged after the last checkpoint are rendered again.
+TEST_F(CoordinatorJob, ARetriedCancelledJobGivesTheBytesOfAFreshJob) {
+    m_options.checkpointIntervalSeconds = 0;  // every tick() checkpoints
+    Coordinator coordinator(m_options);
+    const uint64_t jobId = coordinator.submit(upload(coordinator)).job_id();
+    const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+    const auto mergeOne = [&] {
+        const auto lease = coordinator.acquire(worker, std::chrono::steady_clock::now());
+        std::string compressed;
+        ASSERT_EQ(coordinator.report(render(lease, worker, compressed), compressed),
+                  v1::RESULT_MERGED);
+    };
+    for (int i = 0; i < 5; ++i) mergeOne();
+    coordinator.tick();  // checkpoints 5 units
+    mergeOne();          // not in the checkpoint
+    EXPECT_NE(refusal([&] { coordinator.retry(jobId); }).find("it is running"), std::string::npos);
+    coordinator.cancel(jobId);
+    const v1::JobStatus retried = coordinator.retry(jobId);
+    EXPECT_EQ(retried.state(), v1::JOB_STATE_RUNNING);
+    EXPECT_TRUE(retried.error().empty());
+    EXPECT_EQ(retried.units_restored(), 5u);
+    EXPECT_EQ(retried.units_done(), 5u);
+    renderAllUnits(coordinator, worker);
+    EXPECT_EQ(coordinator.listJobs(jobId).at(0).state(), v1::JOB_STATE_DONE);
+    EXPECT_EQ(coordinator.snapshot(jobId, false).film.serialize(), localFilm());
+    EXPECT_NE(refusal([&] { coordinator.retry(jobId); }).find("it is done"), std::string::npos);
+    const v1::GetJobLogResponse log = coordinator.jobLog(jobId, 0);
+    EXPECT_TRUE(hasEvent(log, v1::JOB_EVENT_CANCELLED));
+    EXPECT_TRUE(hasEvent(log, v1::JOB_EVENT_RETRIED));
+    coordinator.stop();
+}
+
+// A job failed by a poison unit runs again with its attempts forgotten.
+TEST_F(CoordinatorJob, ARetriedFailedJobForgetsItsAttempts) {
+    m_options.maxAttempts = 2;
+    uint64_t jobId = 0;
+    {
+        Coordinator coordinator(m_options);
+        jobId = coordinator.submit(upload(coordinator)).job_id();
+        const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+        for (uint32_t attempt = 0; attempt < 2; ++attempt) {
+            const auto lease = coordinator.acquire(worker, std::chrono::steady_clock::now());
+            v1::ResultChunk failure;
+            failure.set_worker_id(worker);
+            failure.set_lease_id(lease.lease_id());
+            failure.set_job_id(jobId);
+            failure.set_unit_index(lease.unit().unit_index());
+            failure.set_error("the renderer ran out of memory");
+            EXPECT_EQ(coordinator.report(failure, ""), v1::RESULT_RECORDED);
+        }
+        const v1::JobStatus failed = coordinator.listJobs(jobId).at(0);
+        ASSERT_EQ(failed.state(), v1::JOB_STATE_FAILED);
+        const v1::GetJobLogResponse log = coordinator.jobLog(jobId, 0);
+        EXPECT_TRUE(hasEvent(log, v1::JOB_EVENT_POISONED));
+        bool sawError = false;
+        for (const v1::JobEvent& event : log.events())
+            sawError =
+                sawError ||
+                (event.kind() == v1::JOB_EVENT_FAILED && event.worker_id() == worker &&
+                 event.message().find("the renderer ran out of memory") != std::string::npos);
+        EXPECT_TRUE(sawError) << "the worker's error text is not in the log";
+        coordinator.stop();
+    }
+    {
+        Coordinator coordinator(m_options);
+        const v1::JobStatus retried = coordinator.retry(jobId);
+        EXPECT_EQ(retried.attempts_failed(), 0u);
+        EXPECT_EQ(retried.state(), v1::JOB_STATE_RUNNING);
+        coordinator.stop();
+    }
+    Coordinator restarted(m_options);  // the retry is stored
+    EXPECT_EQ(restarted.listJobs(jobId).at(0).state(), v1::JOB_STATE_RUNNING);
+    EXPECT_EQ(restarted.listJobs(jobId).at(0).attempts_failed(), 0u);
+    renderAllUnits(restarted, restarted.registerWorker(v1::RegisterRequest()));
+    EXPECT_EQ(restarted.listJobs(jobId).at(0).state(), v1::JOB_STATE_DONE);
+    EXPECT_EQ(restarted.snapshot(jobId, false).film.serialize(), localFilm());
+    restarted.stop();
+}
+
+// Delete: a running job is refused unless cancelled with it; the record, the directory and the
+// blobs only it used go at once (a blob another job uses stays; the uses of a blob before the
+// job's submission do not keep it), also for a restart.
+TEST_F(CoordinatorJob, DeleteRemovesTheJobItsFilesAndTheBlobsOnlyItUsed) {
+    uint64_t deleted = 0, kept = 0;
+    std::string scene, sphere;
+    {
+        Coordinator coordinator(m_options);
+        const v1::SubmitJobRequest request = upload(coordinator);
+        for (const v1::BundleFile& file : request.bundle().files())
+            (file.path() == "sphere.obj" ? sphere : scene) = file.sha256();
+        coordinator.touchBlobs({scene, sphere});  // as the client's HasBlobs before it submits
+        deleted = coordinator.submit(request).job_id();
+        std::string message = refusal([&] { coordinator.deleteJob(deleted, false); });
+        EXPECT_NE(message.find("is running: cancel it first"), std::string::npos) << message;
+        EXPECT_TRUE(fs::exists(coordinator.jobDirectory(deleted)));
+        // A second job shares sphere.obj but not the scene file.
+        std::ofstream(m_dir / "scene/s.xml", std::ios::app) << "<!-- another scene -->\n";
+        kept = coordinator.submit(upload(coordinator)).job_id();
+        const v1::DeleteJobResponse response = coordinator.deleteJob(deleted, true);
+        EXPECT_TRUE(response.cancelled());
+        EXPECT_EQ(response.blobs_removed(), 1u);
+        EXPECT_FALSE(coordinator.blobs().has(scene));
+        EXPECT_TRUE(coordinator.blobs().has(sphere)) << "a blob another job uses was removed";
+        EXPECT_FALSE(fs::exists(coordinator.jobDirectory(deleted)));
+        EXPECT_THROW(coordinator.listJobs(deleted), FarmError);
+        EXPECT_THROW(coordinator.jobLog(deleted, 0), FarmError);
+        EXPECT_EQ(coordinator.listJobs(0).size(), 1u);
+        coordinator.tick();  // frees the deleted job
+        coordinator.stop();
+    }
+    Coordinator coordinator(m_options);
+    EXPECT_THROW(coordinator.listJobs(deleted), FarmError) << "the deleted job came back";
+    EXPECT_EQ(coordinator.listJobs(kept).at(0).state(), v1::JOB_STATE_RUNNING);
+    coordinator.cancel(kept);
+    EXPECT_EQ(coordinator.deleteJob(kept, false).blobs_removed(), 2u);
+    EXPECT_THROW(coordinator.deleteJob(kept, false), FarmError);
+    coordinator.stop();
+}
+
+// The event log records the job's life in order and is stored with it.
+TEST_F(CoordinatorJob, TheEventLogRecordsTheJobsLifeAndSurvivesARestart) {
+    m_options.checkpointIntervalSeconds = 0;
+    uint64_t jobId = 0;
+    std::vector<v1::JobEventKind> before;
+    {
+        Coordinator coordinator(m_options);
+        v1::SubmitJobRequest request = upload(coordinator);
+        request.mutable_settings()->set_owner("ana@render-1");
+        jobId = coordinator.submit(request).job_id();
+        const v1::JobStatus status = coordinator.listJobs(jobId).at(0);
+        EXPECT_EQ(status.settings().owner(), "ana@render-1");
+        EXPECT_GT(status.submitted_at_unix_seconds(), 1.5e9);
+        coordinator.setPaused(jobId, true);
+        coordinator.setPaused(jobId, false);
+        coordinator.setPriority(jobId, 4);
+        const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+        renderAllUnits(coordinator, worker);
+        const v1::GetJobLogResponse log = coordinator.jobLog(jobId, 0);
+        before = eventKinds(log);
+        ASSERT_GE(before.size(), 6u);
+        EXPECT_EQ(before[0], v1::JOB_EVENT_SUBMITTED);
+        EXPECT_NE(log.events(0).message().find("ana@render-1"), std::string::npos);
+        EXPECT_EQ(before[1], v1::JOB_EVENT_PAUSED);
+        EXPECT_EQ(before[2], v1::JOB_EVENT_RESUMED);
+        EXPECT_EQ(before[3], v1::JOB_EVENT_PRIORITY_CHANGED);
+        EXPECT_EQ(log.events(3).message(), "priority 0 -> 4");
+        EXPECT_EQ(before[4], v1::JOB_EVENT_LEASED);
+        EXPECT_EQ(log.events(4).worker_id(), worker);
+        EXPECT_TRUE(log.events(4).has_unit());
+        EXPECT_EQ(before.back(), v1::JOB_EVENT_FINISHED);
+        EXPECT_TRUE(hasEvent(log, v1::JOB_EVENT_MERGED));
+        EXPECT_TRUE(hasEvent(log, v1::JOB_EVENT_CHECKPOINTED));
+        for (int i = 1; i < log.events_size(); ++i)
+            EXPECT_EQ(log.events(i).sequence(), log.events(i - 1).sequence() + 1);
+        const auto tail = coordinator.jobLog(jobId, log.events(2).sequence());
+        EXPECT_EQ(tail.events(0).kind(), v1::JOB_EVENT_PRIORITY_CHANGED);
+        EXPECT_EQ(tail.state(), v1::JOB_STATE_DONE);
+        coordinator.stop();
+    }
+    Coordinator coordinator(m_options);
+    EXPECT_EQ(eventKinds(coordinator.jobLog(jobId, 0)), before) << "the log was not stored";
+    coordinator.stop();
+}
+
+// A drained worker is given nothing new, while the unit it holds still merges; undrained it
+// works again. The drain is stored; an unknown worker is named.
+TEST_F(CoordinatorJob, ADrainedWorkerGetsNoNewUnits) {
+    uint64_t worker = 0;
+    {
+        Coordinator coordinator(m_options);
+        coordinator.submit(upload(coordinator));
+        worker = coordinator.registerWorker(v1::RegisterRequest());
+        const auto out = coordinator.acquire(worker, std::chrono::steady_clock::now());
+        ASSERT_TRUE(out.has_work());
+        const v1::WorkerInfo info = coordinator.setWorkerDraining(worker, true);
+        EXPECT_TRUE(info.draining());
+        EXPECT_FALSE(info.exiting());
+        EXPECT_EQ(info.leases(), 1u);
+        const auto none = coordinator.acquire(worker, std::chrono::steady_clock::now());
+        EXPECT_FALSE(none.has_work()) << "a drained worker was given a unit";
+        EXPECT_TRUE(none.draining());
+        std::string compressed;
+        EXPECT_EQ(coordinator.report(render(out, worker, compressed), compressed),
+                  v1::RESULT_MERGED);
+        try {
+            coordinator.setWorkerDraining(worker + 100, true);
+            ADD_FAILURE() << "an unknown worker was drained";
+        } catch (const FarmError& e) {
+            EXPECT_EQ(e.kind, FarmError::Kind::UnknownWorker);
+        }
+        coordinator.stop();
+    }
+    Coordinator coordinator(m_options);
+    EXPECT_FALSE(coordinator.acquire(worker, std::chrono::steady_clock::now()).has_work())
+        << "the drain was not stored";
+    EXPECT_FALSE(coordinator.setWorkerDraining(worker, false).draining());
+    EXPECT_TRUE(coordinator.acquire(worker, std::chrono::steady_clock::now()).has_work());
+    coordinator.stop();
+}
+
+// What `alphorn workers` shows of liveness: silent after two heartbeat intervals without a call
+// (long before the lease expires), dead after three lease periods; draining and then left for
+// a worker stopping on SIGTERM, which is given nothing new meanwhile.
+TEST_F(CoordinatorJob, WorkerStatesFollowTheirCalls) {
+    auto clock = std::make_shared<ManualClock>();
+    Coordinator coordinator(m_options, clock);
+    coordinator.submit(upload(coordinator));
+    const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+    const auto state = [&] { return coordinator.listWorkers(true).at(0).state(); };
+    EXPECT_EQ(state(), v1::WORKER_STATE_ALIVE);
+    clock->advance(coordinator.silentAfterSeconds() - 0.5);
+    EXPECT_EQ(state(), v1::WORKER_STATE_ALIVE);
+    clock->advance(1);
+    EXPECT_EQ(state(), v1::WORKER_STATE_SILENT);
+    EXPECT_TRUE(coordinator.listWorkers(false).at(0).alive());
+    clock->advance(3 * m_options.leaseSeconds);
+    EXPECT_EQ(state(), v1::WORKER_STATE_DEAD);
+    EXPECT_TRUE(coordinator.listWorkers(false).empty());
+
+    v1::HeartbeatRequest stopping;
+    stopping.set_worker_id(worker);
+    stopping.set_draining(true);
+    coordinator.heartbeat(stopping);
+    v1::WorkerInfo info = coordinator.listWorkers(true).at(0);
+    EXPECT_EQ(info.state(), v1::WORKER_STATE_ALIVE);
+    EXPECT_TRUE(info.draining());
+    EXPECT_TRUE(info.exiting());
+    EXPECT_FALSE(coordinator.acquire(worker, std::chrono::steady_clock::now()).has_work());
+    stopping.set_exiting(true);
+    coordinator.heartbeat(stopping);
+    info = coordinator.listWorkers(true).at(0);
+    EXPECT_EQ(info.state(), v1::WORKER_STATE_LEFT);
+    EXPECT_FALSE(info.alive());
+    EXPECT_TRUE(coordinator.listWorkers(false).empty());
+    stopping.set_exiting(false);  // a heartbeat of the stopping process, late on the network
+    coordinator.heartbeat(stopping);
+    EXPECT_EQ(coordinator.listWorkers(true).at(0).state(), v1::WORKER_STATE_LEFT);
     coordinator.stop();
 }
 

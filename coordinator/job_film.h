@@ -1,15 +1,26 @@
 // One job's image as it is merged: the whole-image film of exact sums, which units it contains,
-// the progress figures derived from them (kept up to date on each merge, never recounted), and
-// its checkpoint file. Not thread-safe: the caller serializes calls, except writeFile() and
+// the progress figures derived from them (kept up to date on each merge, never recounted), its
+// error estimate and its checkpoint file.
+//
+// A job with a target error decides at 4, 8, 16, ... passes and at its cap whether to stop
+// (error_estimate.h), from the merged film only. Until the decision at D passes is taken, only
+// units of passes below D may be leased and merged (leaseLimit(), which the LeaseScheduler
+// enforces), so the film it is taken from holds exactly passes [0, D): the decision, and so the
+// stopping pass and the image, are the same for any number of workers, any order of results
+// and any coordinator restart. Not thread-safe: the caller serializes calls, except writeFile() and
 // readFile(), which do the file I/O outside the caller's lock (serialized per job by
 // writeMutex()).
 #pragma once
 
+#include "alphorn/v1/farm.pb.h"
 #include "common/farm/job_grid.h"
+#include "common/farm/metrics.h"
+#include "common/render/error_estimate.h"
 #include "common/render/film.h"
 #include "coordinator/checkpoint.h"
 
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -18,7 +29,9 @@ namespace alphorn::coordinator {
 class JobFilm {
   public:
     JobFilm() = default;
-    JobFilm(const farm::JobGrid& grid, std::string checkpointPath);
+    // `targetError`: the job stops at the first decision point whose estimate reaches it.
+    JobFilm(const farm::JobGrid& grid, std::string checkpointPath,
+            std::optional<double> targetError = std::nullopt);
     JobFilm(JobFilm&&) = delete;
 
     // Memory a running job's film and merged flags take.
@@ -39,7 +52,18 @@ class JobFilm {
     const FilmBlock& film() const { return m_film; }
     const std::vector<bool>& merged() const { return m_merged; }
     uint32_t mergedCount() const { return m_mergedCount; }
-    bool complete() const { return m_mergedCount == m_grid.unitCount(); }
+    // Every unit merged, or the target error reached at a decision point.
+    bool complete() const { return m_mergedCount == m_grid.unitCount() || m_targetReached; }
+    bool targetReached() const { return m_targetReached; }
+    // Units [0, leaseLimit()) may be leased and merged: all of them, or for a job with a target
+    // error those of the passes before the next decision point.
+    uint32_t leaseLimit() const;
+    // The estimate at the last decision point (see JobStatus.error_estimate).
+    const std::optional<ErrorEstimate>& estimate() const { return m_estimate; }
+    const std::optional<double>& targetError() const { return m_targetError; }
+    // The passes the job is expected to end with: all of them, or for a job with a target error
+    // the decision point at or after the projected passes (the cap without an estimate yet).
+    uint32_t expectedPasses() const;
     uint32_t passesComplete() const { return m_passesComplete; }
     uint64_t samplesMerged() const { return m_samplesMerged; }
     uint64_t invalidSamples() const { return m_film.invalidSamples; }
@@ -62,14 +86,20 @@ class JobFilm {
     void writeFile(const Copy& copy) const;
     Checkpoint readFile() const;
     void checkpointWritten(uint32_t count);
-    void checkpointFailed(const std::string& error) { m_checkpointError = error; }
+    void checkpointFailed(const std::string& error) {
+        m_checkpointError = error;
+        farm::CoordinatorMetrics::checkpointFailed();
+    }
     void clearCheckpointError() { m_checkpointError.clear(); }
     // The last failed write (e.g. a full disk); cleared by the next success.
     const std::string& checkpointError() const { return m_checkpointError; }
     uint32_t checkpointsWritten() const { return m_checkpointsWritten; }
 
   private:
-    void countMerged(uint32_t unitIndex);
+    // Marks the unit merged and counts it; returns its samples (tile pixels x passes).
+    uint64_t countMerged(uint32_t unitIndex);
+    // At a decision point: the estimate, and whether the target stops the job.
+    void decide(const FilmBlock& film);
 
     farm::JobGrid m_grid;
     std::string m_path;
@@ -79,8 +109,17 @@ class JobFilm {
     uint32_t m_mergedCount = 0, m_passesComplete = 0;
     uint64_t m_samplesMerged = 0;
     uint32_t m_checkpointedCount = 0, m_checkpointsWritten = 0;
+    std::optional<double> m_targetError;
+    uint32_t m_decisionPasses = 0;  // the next decision point
+    std::optional<ErrorEstimate> m_estimate;
+    bool m_targetReached = false;
     std::string m_checkpointError;
     std::mutex m_writeMutex;
 };
+
+// The job's target error, if it has one.
+std::optional<double> targetError(const v1::JobSettings& settings);
+// Fills the status's error estimate, projected passes and target_reached from the film.
+void describeEstimate(const JobFilm& film, v1::JobStatus& status);
 
 }  // namespace alphorn::coordinator

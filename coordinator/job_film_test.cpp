@@ -2,6 +2,10 @@
 // and a checkpoint restores the same film and units; an older copy never overwrites a newer one.
 #include "coordinator/job_film.h"
 
+#include "common/farm/files.h"
+#include "common/farm/film_codec.h"
+#include "common/farm/sha256.h"
+
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -80,6 +84,149 @@ TEST(JobFilm, ACheckpointRestoresTheFilmAndNeverGoesBack) {
     EXPECT_EQ(restored.samplesMerged(), film.samplesMerged());
     EXPECT_EQ(restored.passesComplete(), 0u);
     EXPECT_FALSE(restored.dirty());
+    fs::remove_all(dir);
+}
+
+// A unit of passes [b, e) where every pixel of pass p is grey 1 + s_p with s_0 = 1, s_1 = -1 and
+// s_p = 0 after: after D passes the halves are 1 + 2/D and 1 - 2/D, so the estimated relative
+// RMSE is sqrt((4/D)^2 / 4) = 2/D (0.5 at 4 passes, 0.25 at 8, 0.125 at 16).
+FilmBlock shrinkingNoiseBlock(const RenderUnit& unit) {
+    FilmBlock block(unit.tile.x0, unit.tile.y0, unit.tile.width(), unit.tile.height());
+    for (int y = block.y0(); y < block.y0() + block.height(); ++y)
+        for (int x = block.x0(); x < block.x0() + block.width(); ++x)
+            for (uint32_t pass = unit.passBegin; pass < unit.passEnd; ++pass) {
+                const double value = 1.0 + (pass == 0 ? 1.0 : pass == 1 ? -1.0 : 0.0);
+                for (PixelSum* sum : {&block.at(x, y), pass % 2 ? &block.oddAt(x, y) : nullptr}) {
+                    if (!sum) continue;
+                    for (int c = 0; c < 3; ++c) sum->rgb[c] += toFixedPoint(value);
+                    sum->weight += toFixedPoint(1.0);
+                }
+            }
+    return block;
+}
+
+// A job with a target error merges nothing past the next decision point, decides there from
+// the merged passes only, and stops at the first point whose estimate reaches the target.
+TEST(JobFilm, ATargetErrorStopsAtTheFirstDecisionPointThatReachesIt) {
+    // 2 x 2 tiles, a cap of 32 passes in chunks of 2: 4 tiles per chunk.
+    const farm::JobGrid grid(8, 8, 4, 32, 2);
+    JobFilm film(grid, "", 0.2);
+    film.startEmpty();
+    EXPECT_EQ(film.leaseLimit(), 2u * 4) << "the passes before 4";
+    for (uint32_t decision : {4u, 8u, 16u}) {
+        const uint32_t limit = film.leaseLimit();
+        EXPECT_EQ(limit, decision / 2 * 4);
+        EXPECT_THROW(film.merge(limit, shrinkingNoiseBlock(grid.unit(limit))), Error)
+            << "merged past the decision at " << decision;
+        for (uint32_t i = 0; i < limit; ++i)
+            if (!film.merged()[i]) film.merge(i, shrinkingNoiseBlock(grid.unit(i)));
+        ASSERT_TRUE(film.estimate());
+        EXPECT_EQ(film.estimate()->passes, decision);
+        EXPECT_NEAR(film.estimate()->relativeRmse, 2.0 / decision, 1e-9);
+        EXPECT_EQ(film.complete(), decision == 16u) << decision;
+        // 2/D falls as 1/D, faster than the Monte Carlo rate the projection assumes: from 4
+        // passes it projects (0.5 / 0.2)^2 * 4 = 25, the decision point 32.
+        if (decision == 4u) {
+            EXPECT_EQ(film.expectedPasses(), 32u);
+        }
+    }
+    EXPECT_EQ(film.expectedPasses(), 16u) << "stopped";
+    EXPECT_TRUE(film.targetReached());
+    EXPECT_EQ(film.passesComplete(), 16u);
+    EXPECT_EQ(film.leaseLimit(), 0u);
+
+    // Without a target nothing waits, and the last decision point is the cap.
+    JobFilm plain(grid, "");
+    plain.startEmpty();
+    EXPECT_EQ(plain.leaseLimit(), grid.unitCount());
+    for (uint32_t i = grid.unitCount(); i-- > 0;) plain.merge(i, shrinkingNoiseBlock(grid.unit(i)));
+    ASSERT_TRUE(plain.estimate());
+    EXPECT_EQ(plain.estimate()->passes, 32u);
+    EXPECT_NEAR(plain.estimate()->relativeRmse, 2.0 / 32, 1e-9);
+    EXPECT_FALSE(plain.targetReached());
+}
+
+// After a restart the decision is taken again from the checkpoint's film: the same barrier,
+// the same estimate, the same stop.
+TEST(JobFilm, ACheckpointRestoresTheDecisions) {
+    const fs::path dir =
+        fs::temp_directory_path() / ("alphorn_job_film_target_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const std::string path = (dir / "film.ckpt").string();
+    const farm::JobGrid grid(8, 8, 4, 32, 2);
+    JobFilm film(grid, path, 0.2);
+    film.startEmpty();
+    // The decisions at 4 and 8 passes go on; two units of the passes before 16 are merged.
+    while (film.leaseLimit() <= 4 * 4)
+        for (uint32_t i = 0, limit = film.leaseLimit(); i < limit; ++i)
+            if (!film.merged()[i]) film.merge(i, shrinkingNoiseBlock(grid.unit(i)));
+    film.merge(16, shrinkingNoiseBlock(grid.unit(16)));
+    film.merge(17, shrinkingNoiseBlock(grid.unit(17)));
+    film.writeFile(film.copy());
+    JobFilm restored(grid, path, 0.2);
+    restored.restore(restored.readFile(), true);
+    EXPECT_EQ(restored.leaseLimit(), film.leaseLimit());
+    EXPECT_EQ(restored.leaseLimit(), 8u * 4);
+    EXPECT_FALSE(restored.estimate()) << "no decision point is complete in the checkpoint";
+    // The finished job: its checkpoint says it stopped at the target.
+    for (uint32_t i = 0, limit = film.leaseLimit(); i < limit; ++i)
+        if (!film.merged()[i]) film.merge(i, shrinkingNoiseBlock(grid.unit(i)));
+    ASSERT_TRUE(film.targetReached());
+    film.writeFile(film.copy());
+    JobFilm done(grid, path, 0.2);
+    done.restore(done.readFile(), false);
+    EXPECT_TRUE(done.complete());
+    EXPECT_TRUE(done.targetReached());
+    ASSERT_TRUE(done.estimate());
+    EXPECT_EQ(done.estimate()->passes, 16u);
+    fs::remove_all(dir);
+}
+
+// A checkpoint of version 1 (totals only) is read as a film without halves: the job goes on
+// without an error estimate.
+TEST(JobFilm, AVersion1CheckpointIsReadWithoutAnEstimate) {
+    const fs::path dir =
+        fs::temp_directory_path() / ("alphorn_job_film_v1_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const std::string path = (dir / "film.ckpt").string();
+    const farm::JobGrid grid(4, 4, 4, 4, 1);
+    FilmBlock totals(0, 0, 4, 4, PassHalves::None);
+    totals.at(1, 2).rgb[0] = toFixedPoint(5.0);
+    totals.at(1, 2).weight = toFixedPoint(2.0);
+    std::string bytes = "ALPHCKP1";
+    const auto put = [&](auto value) {
+        bytes.append(reinterpret_cast<const char*>(&value), sizeof value);
+    };
+    put(uint32_t(4));
+    put(uint32_t(4));
+    put(uint32_t(grid.unitCount()));
+    put(uint64_t(0));
+    for (uint32_t i = 0; i < grid.unitCount(); ++i) bytes.push_back(i < 2 ? 1 : 0);
+    const std::string compressed = farm::compressFilm(totals);
+    put(uint64_t(compressed.size()));
+    bytes += compressed;
+    bytes += farm::sha256Hex(bytes);
+    farm::writeFileAtomically(path, bytes);
+    JobFilm film(grid, path);
+    film.restore(film.readFile(), true);
+    EXPECT_EQ(film.mergedCount(), 2u);
+    EXPECT_FALSE(film.film().keepsHalves());
+    EXPECT_EQ(film.film().at(1, 2).weight, toFixedPoint(2.0));
+    film.merge(2, FilmBlock(0, 0, 4, 4));
+    film.merge(3, FilmBlock(0, 0, 4, 4));
+    EXPECT_TRUE(film.complete());
+    EXPECT_FALSE(film.estimate());
+    // An unknown version is refused with the reason.
+    bytes[7] = '9';
+    farm::writeFileAtomically(path, bytes);
+    try {
+        film.readFile();
+        FAIL() << "version 9 was read";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("version 9"), std::string::npos) << e.what();
+    }
     fs::remove_all(dir);
 }
 

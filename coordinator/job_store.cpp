@@ -36,6 +36,21 @@ constexpr const char* kSchema[] = {
     // Earlier versions recorded uploaded blobs here and never read them: the blob directory is
     // what counts (blob_store.h).
     "DROP TABLE IF EXISTS blobs",
+    R"sql(CREATE TABLE IF NOT EXISTS job_logs(
+  job_id INTEGER PRIMARY KEY,
+  log BLOB NOT NULL,           -- serialized alphorn.v1.JobEventLog (bounded, see event_log.h)
+  next_sequence INTEGER NOT NULL  -- the log's next_sequence: a newer log is never overwritten
+))sql",
+};
+
+// Columns added after the first release, with their declarations: databases of earlier
+// versions get them on open.
+struct AddedColumn {
+    const char *table, *column, *declaration;
+};
+constexpr AddedColumn kAddedColumns[] = {
+    {"jobs", "paused", "INTEGER NOT NULL DEFAULT 0"},
+    {"workers", "draining", "INTEGER NOT NULL DEFAULT 0"},
 };
 
 using Value = StateDatabase::Value;
@@ -50,6 +65,14 @@ double real(const Value& value) {
 
 JobStore::JobStore(const std::string& path) : m_db(path) {
     for (const char* statement : kSchema) m_db.execute(statement);
+    for (const AddedColumn& added : kAddedColumns) {
+        bool present = false;
+        for (const auto& row : m_db.query(std::string("PRAGMA table_info(") + added.table + ")"))
+            present = present || StateDatabase::text(row.at(1)) == added.column;
+        if (!present)
+            m_db.execute(std::string("ALTER TABLE ") + added.table + " ADD COLUMN " + added.column +
+                         " " + added.declaration);
+    }
 }
 
 uint64_t JobStore::beginEpoch() {
@@ -100,7 +123,7 @@ uint64_t JobStore::addJob(const v1::JobDescription& description, int width, int 
 std::vector<JobRow> JobStore::jobs() {
     std::vector<JobRow> result;
     for (const auto& row : m_db.query("SELECT id, description, state, error, width, height, "
-                                      "filter_border, created_at, finished_at FROM jobs")) {
+                                      "filter_border, created_at, finished_at, paused FROM jobs")) {
         JobRow job;
         job.id = uint64_t(StateDatabase::integer(row[0]));
         v1::JobDescription description;
@@ -116,6 +139,7 @@ std::vector<JobRow> JobStore::jobs() {
         job.filterBorder = int(StateDatabase::integer(row[6]));
         job.createdAt = real(row[7]);
         job.finishedAt = real(row[8]);
+        job.paused = StateDatabase::integer(row[9]) != 0;
         result.push_back(std::move(job));
     }
     return result;
@@ -130,7 +154,37 @@ void JobStore::setJobState(uint64_t jobId, v1::JobState state, const std::string
 
 void JobStore::removeJob(uint64_t jobId) {
     m_db.execute("DELETE FROM units WHERE job_id = ?", {int64_t(jobId)});
+    m_db.execute("DELETE FROM job_logs WHERE job_id = ?", {int64_t(jobId)});
     m_db.execute("DELETE FROM jobs WHERE id = ?", {int64_t(jobId)});
+}
+
+void JobStore::setJobDescription(uint64_t jobId, const v1::JobDescription& description) {
+    v1::JobDescription stored = description;
+    stored.set_job_id(jobId);
+    m_db.execute("UPDATE jobs SET description = ? WHERE id = ?",
+                 {stored.SerializeAsString(), int64_t(jobId)});
+}
+
+void JobStore::setJobPaused(uint64_t jobId, bool paused) {
+    m_db.execute("UPDATE jobs SET paused = ? WHERE id = ?", {int64_t(paused), int64_t(jobId)});
+}
+
+void JobStore::saveJobLog(uint64_t jobId, const v1::JobEventLog& log) {
+    // Only for a job that exists (a log saved as its job is removed must not outlive it), and
+    // never over a newer log (two threads may save one job's log at once).
+    m_db.execute(
+        "INSERT INTO job_logs(job_id, log, next_sequence) SELECT ?, ?, ? WHERE EXISTS (SELECT 1 "
+        "FROM jobs WHERE id = ?) ON CONFLICT(job_id) DO UPDATE SET log = excluded.log, "
+        "next_sequence = excluded.next_sequence WHERE excluded.next_sequence >= "
+        "job_logs.next_sequence",
+        {int64_t(jobId), log.SerializeAsString(), int64_t(log.next_sequence()), int64_t(jobId)});
+}
+
+v1::JobEventLog JobStore::jobLog(uint64_t jobId) {
+    v1::JobEventLog log;
+    const auto rows = m_db.query("SELECT log FROM job_logs WHERE job_id = ?", {int64_t(jobId)});
+    if (!rows.empty() && !log.ParseFromString(StateDatabase::text(rows[0][0]))) log.Clear();
+    return log;
 }
 
 void JobStore::setUnitAttempts(uint64_t jobId, uint32_t unitIndex, uint32_t attempts,
@@ -157,6 +211,10 @@ std::vector<UnitAttemptsRow> JobStore::unitAttempts(uint64_t jobId) {
     return result;
 }
 
+void JobStore::clearUnitAttempts(uint64_t jobId) {
+    m_db.execute("DELETE FROM units WHERE job_id = ?", {int64_t(jobId)});
+}
+
 uint64_t JobStore::addWorker(const WorkerRow& worker, double registeredAt) {
     const auto rows = m_db.query(
         "INSERT INTO workers(name, cores, memory_bytes, version, registered_at) "
@@ -169,13 +227,14 @@ uint64_t JobStore::addWorker(const WorkerRow& worker, double registeredAt) {
 std::vector<WorkerRow> JobStore::workers() {
     std::vector<WorkerRow> result;
     for (const auto& row :
-         m_db.query("SELECT id, name, cores, memory_bytes, version FROM workers")) {
+         m_db.query("SELECT id, name, cores, memory_bytes, version, draining FROM workers")) {
         WorkerRow worker;
         worker.id = uint64_t(StateDatabase::integer(row[0]));
         worker.name = StateDatabase::text(row[1]);
         worker.cores = uint32_t(StateDatabase::integer(row[2]));
         worker.memoryBytes = uint64_t(StateDatabase::integer(row[3]));
         worker.version = StateDatabase::text(row[4]);
+        worker.draining = StateDatabase::integer(row[5]) != 0;
         result.push_back(std::move(worker));
     }
     return result;
@@ -183,6 +242,11 @@ std::vector<WorkerRow> JobStore::workers() {
 
 void JobStore::removeWorker(uint64_t workerId) {
     m_db.execute("DELETE FROM workers WHERE id = ?", {int64_t(workerId)});
+}
+
+void JobStore::setWorkerDraining(uint64_t workerId, bool draining) {
+    m_db.execute("UPDATE workers SET draining = ? WHERE id = ?",
+                 {int64_t(draining), int64_t(workerId)});
 }
 
 }  // namespace alphorn::coordinator

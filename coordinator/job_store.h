@@ -25,6 +25,7 @@ struct JobRow {
     int width = 0, height = 0, filterBorder = 0;
     double createdAt = 0;
     double finishedAt = 0;  // 0 while running
+    bool paused = false;    // a client paused it (no new leases)
 };
 
 struct UnitAttemptsRow {
@@ -38,6 +39,7 @@ struct WorkerRow {
     std::string name, version;
     uint32_t cores = 0;
     uint64_t memoryBytes = 0;
+    bool draining = false;  // a client drained it (no new units)
 };
 
 class JobStore {
@@ -57,16 +59,28 @@ class JobStore {
     // Records that a job ended (or, with JOB_STATE_RUNNING and finishedAt 0, runs again).
     void setJobState(uint64_t jobId, v1::JobState state, const std::string& error,
                      double finishedAt);
-    // Deletes the job and its unit records.
+    // Deletes the job, its unit records and its event log.
     void removeJob(uint64_t jobId);
+    // Replaces the stored description (a new priority); the id stays the row's.
+    void setJobDescription(uint64_t jobId, const v1::JobDescription& description);
+    void setJobPaused(uint64_t jobId, bool paused);
+    // The job's event log (a serialized alphorn.v1.JobEventLog), written whole each time; not
+    // stored for a job the store does not have (removed meanwhile), nor over a log with a
+    // higher next_sequence (a newer one).
+    void saveJobLog(uint64_t jobId, const v1::JobEventLog& log);
+    // The stored log; empty when there is none or it does not parse.
+    v1::JobEventLog jobLog(uint64_t jobId);
 
     void setUnitAttempts(uint64_t jobId, uint32_t unitIndex, uint32_t attempts,
                          const std::string& lastError);
     std::vector<UnitAttemptsRow> unitAttempts(uint64_t jobId);
+    // Forgets every failed attempt of the job (it runs again).
+    void clearUnitAttempts(uint64_t jobId);
 
     uint64_t addWorker(const WorkerRow& worker, double registeredAt);
     std::vector<WorkerRow> workers();
     void removeWorker(uint64_t workerId);
+    void setWorkerDraining(uint64_t workerId, bool draining);
 
     // The SQL connection, for tests that damage records on purpose.
     StateDatabase& database() { return m_db; }

@@ -1,5 +1,7 @@
 // The job store: typed rows round-trip, a job's description comes back under its own id, the
-// epoch counts starts, the lease key stays, and the old never-read blobs table is dropped.
+// epoch counts starts, the lease key stays, the old never-read blobs table is dropped, and the
+// job and worker controls (pause, priority, event log, drain) are stored, also in a database of
+// an earlier version.
 #include "coordinator/job_store.h"
 
 #include <gtest/gtest.h>
@@ -121,6 +123,73 @@ TEST_F(JobStoreTest, TheUnusedBlobsTableIsDropped) {
     JobStore store(path());
     EXPECT_TRUE(
         store.database().query("SELECT name FROM sqlite_master WHERE name = 'blobs'").empty());
+}
+
+TEST_F(JobStoreTest, ControlsAndEventLogsAreStoredAndGoWithTheirJob) {
+    v1::JobDescription description;
+    description.mutable_settings()->set_passes(3);
+    uint64_t job = 0, worker = 0;
+    v1::JobEventLog log;
+    log.set_dropped(4);
+    log.set_next_sequence(9);
+    log.add_events()->set_message("submitted");
+    {
+        JobStore store(path());
+        job = store.addJob(description, 8, 6, 0, 1000);
+        store.setJobPaused(job, true);
+        description.mutable_settings()->set_priority(-3);
+        store.setJobDescription(job, description);
+        store.saveJobLog(job, log);
+        store.saveJobLog(job + 1, log);  // no such job: not stored
+        store.setUnitAttempts(job, 1, 2, "lease expired");
+        store.clearUnitAttempts(job);
+        worker = store.addWorker(WorkerRow{0, "w", "0.1.0", 4, 1 << 20}, 1000);
+        store.setWorkerDraining(worker, true);
+    }
+    JobStore store(path());
+    const JobRow row = store.jobs().at(0);
+    EXPECT_TRUE(row.paused);
+    EXPECT_EQ(row.description->settings().priority(), -3);
+    EXPECT_EQ(row.description->job_id(), job);
+    EXPECT_EQ(store.jobLog(job).SerializeAsString(), log.SerializeAsString());
+    v1::JobEventLog older = log;
+    older.set_next_sequence(8);
+    older.clear_events();
+    store.saveJobLog(job, older);
+    EXPECT_EQ(store.jobLog(job).SerializeAsString(), log.SerializeAsString())
+        << "an older log overwrote a newer one";
+    EXPECT_EQ(store.jobLog(job + 1).events_size(), 0);
+    EXPECT_TRUE(store.unitAttempts(job).empty());
+    EXPECT_TRUE(store.workers().at(0).draining);
+    store.removeJob(job);
+    EXPECT_EQ(store.jobLog(job).events_size(), 0) << "the log outlived its job";
+}
+
+// A database of a version without the control columns gets them, with nothing paused or drained.
+TEST_F(JobStoreTest, AnEarlierDatabaseGetsTheControlColumns) {
+    {
+        StateDatabase db(path());
+        db.execute(
+            "CREATE TABLE jobs(id INTEGER PRIMARY KEY AUTOINCREMENT, description BLOB NOT NULL, "
+            "state INTEGER NOT NULL, error TEXT NOT NULL DEFAULT '', width INTEGER NOT NULL, "
+            "height INTEGER NOT NULL, filter_border INTEGER NOT NULL, created_at REAL NOT NULL, "
+            "finished_at REAL)");
+        db.execute(
+            "CREATE TABLE workers(id INTEGER PRIMARY KEY AUTOINCREMENT, name TEXT NOT NULL, "
+            "cores INTEGER NOT NULL, memory_bytes INTEGER NOT NULL, version TEXT NOT NULL, "
+            "registered_at REAL NOT NULL)");
+        db.execute(
+            "INSERT INTO jobs(description, state, width, height, filter_border, created_at) "
+            "VALUES(x'', 1, 8, 6, 0, 1000)");
+        db.execute(
+            "INSERT INTO workers(name, cores, memory_bytes, version, registered_at) "
+            "VALUES('w', 1, 1, '0.1.0', 1000)");
+    }
+    JobStore store(path());
+    EXPECT_FALSE(store.jobs().at(0).paused);
+    EXPECT_FALSE(store.workers().at(0).draining);
+    JobStore again(path());  // the columns are added once
+    EXPECT_EQ(again.jobs().size(), 1u);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "coordinator/lease_scheduler.h"
 
 #include "common/core/error.h"
+#include "common/farm/metrics.h"
 
 #include <absl/strings/str_format.h>
 
@@ -62,6 +63,22 @@ void LeaseScheduler::removeJob(uint64_t jobId) {
 
 bool LeaseScheduler::running(uint64_t jobId) const {
     return job(jobId).running;
+}
+
+void LeaseScheduler::setLeaseLimit(uint64_t jobId, uint32_t unitLimit) {
+    job(jobId).leaseLimit = unitLimit;
+}
+
+void LeaseScheduler::setPaused(uint64_t jobId, bool paused) {
+    job(jobId).paused = paused;
+}
+
+bool LeaseScheduler::paused(uint64_t jobId) const {
+    return job(jobId).paused;
+}
+
+void LeaseScheduler::setPriority(uint64_t jobId, int priority) {
+    job(jobId).priority = priority;
 }
 
 LeaseScheduler::JobLeases LeaseScheduler::jobLeases(uint64_t jobId) const {
@@ -141,7 +158,9 @@ std::optional<LeaseScheduler::Lease> LeaseScheduler::lease(uint64_t workerId) {
     uint64_t bestId = 0;
     Job* best = nullptr;
     for (auto& [id, candidate] : m_jobs) {
-        if (!candidate.running || candidate.pending.empty()) continue;
+        if (!candidate.running || candidate.paused || candidate.pending.empty() ||
+            *candidate.pending.begin() >= candidate.leaseLimit)
+            continue;
         if (!best || candidate.priority > best->priority) {
             best = &candidate;
             bestId = id;
@@ -151,6 +170,7 @@ std::optional<LeaseScheduler::Lease> LeaseScheduler::lease(uint64_t workerId) {
     const uint32_t index = pickUnit(bestId, *best, workerId);
     worker->second.lastChunk[bestId] = best->grid.chunkOf(index);
     const uint64_t leaseId = m_nextLeaseId++;
+    farm::CoordinatorMetrics::unitLeased(best->units[index].leaseId != 0);  // 0: never leased
     grant(bestId, *best, index, workerId, leaseId);
     ++best->counts.leasedThisRun;
     return Lease{leaseId, bestId, index, m_tokens.token(leaseId, workerId, bestId, index)};
@@ -164,7 +184,9 @@ uint32_t LeaseScheduler::pickUnit(uint64_t jobId, const Job& job, uint64_t worke
     const farm::JobGrid& grid = job.grid;
     const auto firstOfChunk = [&](uint32_t chunk) {
         auto it = job.pending.lower_bound(chunk * grid.tileCount());
-        return it != job.pending.end() && grid.chunkOf(*it) == chunk ? it : job.pending.end();
+        return it != job.pending.end() && grid.chunkOf(*it) == chunk && *it < job.leaseLimit
+                   ? it
+                   : job.pending.end();
     };
     std::set<uint32_t> taken;
     const double recent = m_clock.monotonicSeconds() - m_options.leaseSeconds;
@@ -177,7 +199,7 @@ uint32_t LeaseScheduler::pickUnit(uint64_t jobId, const Job& job, uint64_t worke
             taken.insert(chunk->second);
         }
     }
-    for (auto it = job.pending.begin(); it != job.pending.end();) {
+    for (auto it = job.pending.begin(); it != job.pending.end() && *it < job.leaseLimit;) {
         const uint32_t chunk = grid.chunkOf(*it);
         if (!taken.count(chunk)) return *it;
         it = job.pending.lower_bound((chunk + 1) * grid.tileCount());
@@ -195,6 +217,7 @@ bool LeaseScheduler::renew(uint64_t workerId, uint64_t leaseId, const HeldUnit* 
         auto adopted = m_jobs.find(held->jobId);
         if (adopted != m_jobs.end() && adopted->second.running &&
             held->unitIndex < adopted->second.units.size() &&
+            held->unitIndex < adopted->second.leaseLimit &&
             adopted->second.units[held->unitIndex].state == UnitState::Pending &&
             m_tokens.grantedEarlier(held->token, leaseId, workerId, held->jobId, held->unitIndex)) {
             grant(held->jobId, adopted->second, held->unitIndex, workerId, leaseId);
@@ -210,7 +233,8 @@ bool LeaseScheduler::renew(uint64_t workerId, uint64_t leaseId, const HeldUnit* 
 
 bool LeaseScheduler::mayMerge(uint64_t jobId, uint32_t unitIndex, uint64_t leaseId) const {
     const Job& target = job(jobId);
-    if (!target.running || unitIndex >= target.units.size()) return false;
+    if (!target.running || unitIndex >= target.units.size() || unitIndex >= target.leaseLimit)
+        return false;
     const UnitSlot& slot = target.units[unitIndex];
     if (slot.state == UnitState::Merged) return false;
     return slot.state == UnitState::Pending || slot.leaseId == leaseId;
@@ -238,6 +262,7 @@ bool LeaseScheduler::handBack(uint64_t jobId, uint32_t unitIndex, uint64_t lease
     Job& target = job(jobId);
     release(target, target.units[unitIndex]);
     target.pending.insert(unitIndex);
+    farm::CoordinatorMetrics::unitHandedBack();
     return true;
 }
 
@@ -261,6 +286,7 @@ std::optional<LeaseScheduler::Failure> LeaseScheduler::failAttempt(uint64_t jobI
     if (!holds(jobId, unitIndex, leaseId)) return std::nullopt;
     Job& target = job(jobId);
     release(target, target.units[unitIndex]);
+    farm::CoordinatorMetrics::unitFailed(farm::CoordinatorMetrics::FailureCause::WorkerError);
     return countFailure(jobId, target, unitIndex);
 }
 
@@ -280,6 +306,7 @@ LeaseScheduler::expireLeases() {
         UnitSlot& slot = target.units[ref.unitIndex];
         const ExpiredLease lost{ref.jobId, slot.workerId, ref.unitIndex};
         release(target, slot);
+        farm::CoordinatorMetrics::unitFailed(farm::CoordinatorMetrics::FailureCause::LeaseExpired);
         result.emplace_back(lost, countFailure(ref.jobId, target, ref.unitIndex));
     }
     return result;

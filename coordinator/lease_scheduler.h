@@ -74,6 +74,14 @@ class LeaseScheduler {
     // Forgets an ended job.
     void removeJob(uint64_t jobId);
     bool running(uint64_t jobId) const;
+    // The decision barrier of a job with a target error (JobFilm::leaseLimit): units from
+    // `unitLimit` on are neither leased, re-adopted nor merged until it is raised. Every unit
+    // of a job may be, until this is called.
+    void setLeaseLimit(uint64_t jobId, uint32_t unitLimit);
+    // A paused job gets no new leases; its leases out may still be renewed, merged and failed.
+    void setPaused(uint64_t jobId, bool paused);
+    bool paused(uint64_t jobId) const;
+    void setPriority(uint64_t jobId, int priority);
     JobLeases jobLeases(uint64_t jobId) const;
     const UnitSlot& unit(uint64_t jobId, uint32_t unitIndex) const;
 
@@ -124,6 +132,8 @@ class LeaseScheduler {
     struct Job {
         int priority = 0;
         bool running = true;
+        uint32_t leaseLimit = UINT32_MAX;
+        bool paused = false;
         farm::JobGrid grid;
         std::vector<UnitSlot> units;
         std::set<uint32_t> pending;

@@ -189,5 +189,31 @@ TEST_F(LeaseSchedulerTest, RestoredUnitsAndAttemptsAreKept) {
         << "the stored attempts did not count";
 }
 
+// The decision barrier of a job with a target error: units past the limit are neither leased,
+// merged nor re-adopted until it is raised.
+TEST_F(LeaseSchedulerTest, NothingPastTheLeaseLimit) {
+    LeaseScheduler scheduler = make();
+    scheduler.addWorker(kWorkerA, true);
+    scheduler.addJob(5, 0, grid(), {}, {}, true);
+    scheduler.setLeaseLimit(5, 4);  // the first chunk's 4 tiles
+    std::vector<LeaseScheduler::Lease> leases;
+    for (int i = 0; i < 4; ++i) {
+        auto lease = scheduler.lease(kWorkerA);
+        ASSERT_TRUE(lease);
+        EXPECT_LT(lease->unitIndex, 4u);
+        leases.push_back(*lease);
+    }
+    EXPECT_FALSE(scheduler.lease(kWorkerA)) << "a unit past the limit was leased";
+    EXPECT_FALSE(scheduler.mayMerge(5, 6, 0)) << "a unit past the limit may be merged";
+    for (const auto& lease : leases)
+        EXPECT_TRUE(scheduler.markMerged(5, lease.unitIndex, lease.leaseId));
+    EXPECT_FALSE(scheduler.lease(kWorkerA));
+    scheduler.setLeaseLimit(5, 8);
+    auto next = scheduler.lease(kWorkerA);
+    ASSERT_TRUE(next);
+    EXPECT_EQ(next->unitIndex, 4u);
+    EXPECT_EQ(scheduler.checkConsistency(), "");
+}
+
 }  // namespace
 }  // namespace alphorn::coordinator

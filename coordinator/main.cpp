@@ -1,9 +1,12 @@
 // alphorn-coordinator: the farm's long-running daemon. It accepts jobs from clients, leases
 // units to workers, merges their results exactly and checkpoints every job, so that a restart
 // on the same --state-dir resumes everything. See docs/operations.md.
+#include "common/farm/http_server.h"
+#include "common/farm/metrics.h"
 #include "common/farm/rpc.h"
 #include "coordinator/coordinator.h"
 #include "coordinator/log.h"
+#include "coordinator/metrics.h"
 #include "coordinator/services.h"
 
 #include <CLI/CLI.hpp>
@@ -57,6 +60,22 @@ int main(int argc, char** argv) {
                    "(default: half the physical memory); a job that would exceed it is refused")
         ->transform(CLI::AsSizeValue(false));
     app.add_option("--port-file", portFile, "Write the bound port to this file once listening");
+    std::string httpListen, httpPortFile, metricsTokenFile;
+    bool anonymousMetrics = false;
+    CLI::Option* http = app.add_option(
+        "--http-listen", httpListen,
+        "Serve HTTP on this address (host:port; port 0 picks a free one): /metrics for "
+        "Prometheus, with TLS when --tls-cert is given. Off by default");
+    app.add_option("--http-port-file", httpPortFile,
+                   "Write the bound HTTP port to this file once listening")
+        ->needs(http);
+    app.add_option("--metrics-token-file", metricsTokenFile,
+                   "File holding a token that may read /metrics and nothing else (for "
+                   "Prometheus; the client token reads it too)")
+        ->needs(http);
+    app.add_flag("--http-anonymous-metrics", anonymousMetrics,
+                 "Serve /metrics to anyone, without a token (only on a trusted network)")
+        ->needs(http);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -82,6 +101,14 @@ int main(int argc, char** argv) {
             fail(
                 "the client and worker tokens must differ (a worker must not be able to submit "
                 "jobs)");
+        std::string metricsToken;
+        if (!metricsTokenFile.empty()) {
+            metricsToken = farm::readTokenFile(metricsTokenFile);
+            if (metricsToken == workerToken)
+                fail(
+                    "the metrics token must differ from the worker token (whoever scrapes "
+                    "metrics must not be able to pose as a worker)");
+        }
         Coordinator coordinator(options);
         ClientServiceImpl clientService(coordinator, clientToken);
         WorkerServiceImpl workerService(coordinator, workerToken);
@@ -97,6 +124,27 @@ int main(int argc, char** argv) {
         builder.RegisterService(&workerService);
         std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
         if (!server || port == 0) fail("cannot listen on %s", listen);
+        // Declared after the coordinator, so it stops serving before the coordinator goes.
+        std::unique_ptr<farm::HttpServer> httpServer;
+        if (!httpListen.empty()) {
+            httpServer = std::make_unique<farm::HttpServer>(
+                farm::HttpServerOptions{httpListen, tlsCert, tlsKey});
+            farm::RouteAccess metricsAccess{{clientToken}, anonymousMetrics};
+            if (!metricsToken.empty()) metricsAccess.tokens.push_back(metricsToken);
+            farm::serveMetrics(*httpServer,
+                               {farm::CoordinatorMetrics::registry(),
+                                std::make_shared<CoordinatorStateMetrics>(coordinator)},
+                               metricsAccess);
+            httpServer->start();
+            logInfo("http.listening",
+                    {field("address", httpListen), field("port", httpServer->port()),
+                     field("tls", httpServer->tls() ? "on" : "off"),
+                     field("anonymous_metrics", anonymousMetrics ? "yes" : "no")});
+            if (!httpPortFile.empty()) {
+                std::ofstream(httpPortFile + ".tmp") << httpServer->port() << "\n";
+                std::rename((httpPortFile + ".tmp").c_str(), httpPortFile.c_str());
+            }
+        }
         coordinator.start();
         logInfo("coordinator.listening", {field("address", listen), field("port", port),
                                           field("tls", tlsCert.empty() ? "off" : "on"),
@@ -110,6 +158,7 @@ int main(int argc, char** argv) {
         sigwait(&signals, &signal);
         logInfo("coordinator.stopping", {field("signal", signal)});
         coordinator.beginStop();
+        if (httpServer) httpServer->stop();
         server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
         coordinator.stop();
         return 0;

@@ -18,4 +18,13 @@ std::vector<BlobStore::StoredBlob> Retention::unusedBlobs(
     return unused;
 }
 
+std::vector<std::string> Retention::deletedJobBlobs(
+    const std::set<std::string>& jobBlobs, const std::set<std::string>& referenced,
+    const std::unordered_map<std::string, double>& touchedAt) {
+    std::vector<std::string> result;
+    for (const std::string& sha : jobBlobs)
+        if (!referenced.count(sha) && !touchedAt.count(sha)) result.push_back(sha);
+    return result;
+}
+
 }  // namespace alphorn::coordinator

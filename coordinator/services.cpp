@@ -2,6 +2,7 @@
 
 #include "common/farm/error_reason.h"
 #include "common/farm/film_codec.h"
+#include "common/farm/metrics.h"
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
 #include "common/render/image_io.h"
@@ -23,7 +24,6 @@ grpc::Status toStatus(const std::exception& e) {
             case FarmError::Kind::InvalidArgument:
                 return {grpc::StatusCode::INVALID_ARGUMENT, e.what()};
             case FarmError::Kind::NotFound:
-                // Jobs are the only things looked up by id that clients name.
                 return farm::statusWithReason(grpc::StatusCode::NOT_FOUND, e.what(),
                                               v1::ERROR_REASON_UNKNOWN_JOB);
             case FarmError::Kind::UnknownWorker:
@@ -175,6 +175,7 @@ grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context,
             comparable.clear_elapsed_seconds();
             comparable.clear_eta_seconds();
             comparable.clear_samples_per_second();
+            comparable.clear_rays_per_second();
             std::string serialized = comparable.SerializeAsString();
             const auto now = std::chrono::steady_clock::now();
             if (serialized != last || now - lastSent > std::chrono::seconds(2)) {
@@ -256,6 +257,62 @@ grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context,
     });
 }
 
+grpc::Status ClientServiceImpl::RetryJob(grpc::ServerContext* context,
+                                         const v1::RetryJobRequest* request,
+                                         v1::JobControlResponse* response) {
+    return guarded(context, m_token, "RetryJob", [&] {
+        *response->mutable_status() = m_coordinator.retry(request->job_id());
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status ClientServiceImpl::SetJobPaused(grpc::ServerContext* context,
+                                             const v1::SetJobPausedRequest* request,
+                                             v1::JobControlResponse* response) {
+    return guarded(context, m_token, "SetJobPaused", [&] {
+        *response->mutable_status() = m_coordinator.setPaused(request->job_id(), request->paused());
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status ClientServiceImpl::SetJobPriority(grpc::ServerContext* context,
+                                               const v1::SetJobPriorityRequest* request,
+                                               v1::JobControlResponse* response) {
+    return guarded(context, m_token, "SetJobPriority", [&] {
+        *response->mutable_status() =
+            m_coordinator.setPriority(request->job_id(), request->priority());
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status ClientServiceImpl::DeleteJob(grpc::ServerContext* context,
+                                          const v1::DeleteJobRequest* request,
+                                          v1::DeleteJobResponse* response) {
+    return guarded(context, m_token, "DeleteJob", [&] {
+        *response = m_coordinator.deleteJob(request->job_id(), request->cancel_running());
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status ClientServiceImpl::GetJobLog(grpc::ServerContext* context,
+                                          const v1::GetJobLogRequest* request,
+                                          v1::GetJobLogResponse* response) {
+    return guarded(context, m_token, "GetJobLog", [&] {
+        *response = m_coordinator.jobLog(request->job_id(), request->after_sequence());
+        return grpc::Status::OK;
+    });
+}
+
+grpc::Status ClientServiceImpl::SetWorkerDraining(grpc::ServerContext* context,
+                                                  const v1::SetWorkerDrainingRequest* request,
+                                                  v1::SetWorkerDrainingResponse* response) {
+    return guarded(context, m_token, "SetWorkerDraining", [&] {
+        *response->mutable_worker() =
+            m_coordinator.setWorkerDraining(request->worker_id(), request->draining());
+        return grpc::Status::OK;
+    });
+}
+
 // ---- workers -----------------------------------------------------------------------------------
 
 grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context,
@@ -263,8 +320,7 @@ grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context,
                                          v1::RegisterResponse* response) {
     return guarded(context, m_token, "Register", [&] {
         response->set_worker_id(m_coordinator.registerWorker(*request));
-        response->set_heartbeat_interval_seconds(
-            std::max(0.1, m_coordinator.options().leaseSeconds / 4));
+        response->set_heartbeat_interval_seconds(m_coordinator.heartbeatIntervalSeconds());
         return grpc::Status::OK;
     });
 }
@@ -273,9 +329,11 @@ grpc::Status WorkerServiceImpl::AcquireWork(grpc::ServerContext* context,
                                             const v1::AcquireWorkRequest* request,
                                             v1::AcquireWorkResponse* response) {
     return guarded(context, m_token, "AcquireWork", [&] {
+        const farm::Stopwatch call;
         // Long poll: wait up to 2 s for work, so idle workers neither spin nor lag behind a submit.
         auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
         *response = m_coordinator.acquire(request->worker_id(), until);
+        if (response->has_work()) farm::CoordinatorMetrics::leaseWaited(call.seconds());
         if (response->has_work())
             logInfo("unit.leased",
                     {field("job", response->unit().job_id()),
@@ -299,6 +357,7 @@ grpc::Status WorkerServiceImpl::ReportResult(grpc::ServerContext* context,
                                              grpc::ServerReader<v1::ResultChunk>* reader,
                                              v1::ReportResultResponse* response) {
     return guarded(context, m_token, "ReportResult", [&] {
+        const farm::Stopwatch call;
         v1::ResultChunk header;
         if (!reader->Read(&header))
             return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, "empty result stream");
@@ -323,6 +382,8 @@ grpc::Status WorkerServiceImpl::ReportResult(grpc::ServerContext* context,
                                 "the result stream ended early");
         const v1::ResultDisposition disposition = m_coordinator.report(header, data);
         response->set_disposition(disposition);
+        if (disposition == v1::RESULT_MERGED)
+            farm::CoordinatorMetrics::resultMerged(call.seconds());
         if (disposition == v1::RESULT_MERGED)
             logInfo("unit.merged",
                     {field("job", header.job_id()), field("unit", header.unit_index()),

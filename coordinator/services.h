@@ -29,6 +29,18 @@ class ClientServiceImpl final : public v1::ClientService::Service {
                           v1::ListJobsResponse*) override;
     grpc::Status ListWorkers(grpc::ServerContext*, const v1::ListWorkersRequest*,
                              v1::ListWorkersResponse*) override;
+    grpc::Status RetryJob(grpc::ServerContext*, const v1::RetryJobRequest*,
+                          v1::JobControlResponse*) override;
+    grpc::Status SetJobPaused(grpc::ServerContext*, const v1::SetJobPausedRequest*,
+                              v1::JobControlResponse*) override;
+    grpc::Status SetJobPriority(grpc::ServerContext*, const v1::SetJobPriorityRequest*,
+                                v1::JobControlResponse*) override;
+    grpc::Status DeleteJob(grpc::ServerContext*, const v1::DeleteJobRequest*,
+                           v1::DeleteJobResponse*) override;
+    grpc::Status GetJobLog(grpc::ServerContext*, const v1::GetJobLogRequest*,
+                           v1::GetJobLogResponse*) override;
+    grpc::Status SetWorkerDraining(grpc::ServerContext*, const v1::SetWorkerDrainingRequest*,
+                                   v1::SetWorkerDrainingResponse*) override;
 
   private:
     Coordinator& m_coordinator;

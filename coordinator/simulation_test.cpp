@@ -148,6 +148,7 @@ class Simulation {
         uint32_t durable = 0;       // units in the last checkpoint written
         uint32_t checkpointsSeen = 0;
         bool cancelRequested = false;
+        bool paused = false;  // a client paused it: no new leases
         // It ended while the disk was full: the store may not know, and a restart may find it
         // running again (the uncommitted step a restart may lose).
         bool endUncommitted = false;
@@ -162,6 +163,7 @@ class Simulation {
         std::vector<HeldLease> leases;
         // The last result delivered, to deliver again (a duplicate or a late retry).
         std::optional<std::pair<v1::ResultChunk, std::string>> lastResult;
+        bool drained = false;  // a client drained it: no new leases
     };
 
     [[noreturn]] void violate(const std::string& what) { throw Violation{what}; }
@@ -169,7 +171,8 @@ class Simulation {
         for (const char* event :
              {"RESULT_MERGED", "RESULT_DISCARDED", "RESULT_RECORDED", "crash and restart",
               "graceful stop", "crash inside the step", "crashes", "cancel job", "late for",
-              "duplicate for", "disk full"})
+              "duplicate for", "disk full", "pause job", "resume job", "drain worker",
+              "end the drain of worker"})
             if (line.find(event) != std::string::npos) ++g_coverage[event];
         m_trace.push_back(absl::StrFormat("t=%.1f %s", m_clock->monotonicSeconds(), line));
     }
@@ -254,6 +257,8 @@ class Simulation {
             note(absl::StrFormat("worker %u: no work", worker.id));
             return;
         }
+        if (worker.drained)
+            violate(absl::StrFormat("drained worker %u was leased a unit", worker.id));
         const uint64_t jobId = lease.unit().job_id();
         note(absl::StrFormat("worker %u: leased job %u unit %u (lease %u)", worker.id, jobId,
                              lease.unit().unit_index(), lease.lease_id()));
@@ -265,6 +270,7 @@ class Simulation {
         if (job == m_jobs.end()) violate(absl::StrFormat("a lease of unknown job %u", jobId));
         if (job->second.state != v1::JOB_STATE_RUNNING)
             violate(absl::StrFormat("a lease of ended job %u", jobId));
+        if (job->second.paused) violate(absl::StrFormat("a lease of paused job %u", jobId));
         if (job->second.merged.count(lease.unit().unit_index()))
             violate(absl::StrFormat("a lease of merged unit %u of job %u",
                                     lease.unit().unit_index(), jobId));
@@ -273,6 +279,7 @@ class Simulation {
         for (const auto& [id, other] : m_jobs) {
             if (other.state != v1::JOB_STATE_RUNNING || id == jobId) continue;
             const v1::JobStatus status = m_coordinator->listJobs(id).at(0);
+            if (status.paused()) continue;
             if (status.settings().priority() > priority &&
                 status.units_done() + status.units_leased() < status.units_total())
                 violate(
@@ -478,8 +485,20 @@ class Simulation {
         } else if (roll < 54) {
             if (worker.lastResult)
                 report(worker, worker.lastResult->first, worker.lastResult->second, "duplicate");
-        } else if (roll < 70) {
+        } else if (roll < 66) {
             heartbeat(worker);
+        } else if (roll < 68) {
+            togglePause();
+        } else if (roll < 70) {
+            const v1::WorkerInfo info =
+                m_coordinator->setWorkerDraining(worker.id, !worker.drained);
+            worker.drained = !worker.drained;
+            note(absl::StrFormat("%s worker %u (%u leases)",
+                                 worker.drained ? "drain" : "end the drain of", worker.id,
+                                 info.leases()));
+            if (info.draining() != worker.drained)
+                violate(absl::StrFormat("worker %u: draining %d after the call", worker.id,
+                                        int(info.draining())));
         } else if (roll < 86) {
             advance(0.5 * (1 + m_random.below(6)));
         } else if (roll < 89) {
@@ -525,6 +544,26 @@ class Simulation {
         }
     }
 
+    // Pauses a running job, or resumes it when it is paused.
+    void togglePause() {
+        std::vector<uint64_t> running;
+        for (const auto& [id, job] : m_jobs)
+            if (job.state == v1::JOB_STATE_RUNNING && !job.cancelRequested) running.push_back(id);
+        if (running.empty()) return;
+        SimJob& job = m_jobs.at(running[m_random.below(uint32_t(running.size()))]);
+        try {
+            const v1::JobStatus status = m_coordinator->setPaused(job.id, !job.paused);
+            job.paused = !job.paused;
+            note(absl::StrFormat("%s job %u", job.paused ? "pause" : "resume", job.id));
+            if (status.paused() != job.paused)
+                violate(absl::StrFormat("job %u: paused %d after the call", job.id,
+                                        int(status.paused())));
+        } catch (const FarmError& e) {
+            // The job ended meanwhile (every unit merged, its final checkpoint being written).
+            note(absl::StrFormat("refused to toggle the pause of job %u: %s", job.id, e.what()));
+        }
+    }
+
     void checkInvariants() {
         std::string problems;
         m_coordinator->inspect(
@@ -542,6 +581,9 @@ class Simulation {
             if (!endedUnfinished && status.units_done() != job.merged.size())
                 violate(absl::StrFormat("job %u reports %u units done, %u were merged", id,
                                         status.units_done(), job.merged.size()));
+            if (status.state() == v1::JOB_STATE_RUNNING && status.paused() != job.paused)
+                violate(absl::StrFormat("job %u: paused %d, expected %d", id, int(status.paused()),
+                                        int(job.paused)));
             if (!job.cancelRequested && status.state() == v1::JOB_STATE_CANCELLED)
                 violate(absl::StrFormat("job %u cancelled, but nobody cancelled it", id));
             if (job.cancelRequested && status.state() != v1::JOB_STATE_CANCELLED)
@@ -581,6 +623,20 @@ class Simulation {
     // Everything goes well from here on: every job must end, within a bound.
     void drain() {
         note("drain");
+        for (auto& [id, job] : m_jobs)
+            if (job.paused && job.state == v1::JOB_STATE_RUNNING) {
+                try {
+                    m_coordinator->setPaused(id, false);
+                } catch (const FarmError&) {
+                    // Every unit merged while it was paused: it is finishing.
+                }
+                job.paused = false;
+            }
+        for (SimWorker& worker : m_workers)
+            if (worker.drained) {
+                m_coordinator->setWorkerDraining(worker.id, false);
+                worker.drained = false;
+            }
         for (int round = 0; round < 5000; ++round) {
             bool running = false;
             for (const auto& [id, job] : m_jobs) running |= job.state == v1::JOB_STATE_RUNNING;

@@ -23,6 +23,10 @@ FilmBlock sampleFilm(const fuzz::FilmShape& shape) {
             const double weight = 0.25 + 0.01 * ((x * 7 + y * 3) % 11) - (x == y ? 0.3 : 0.0);
             sum.weight = toFixedPoint(weight);
             for (int c = 0; c < 3; ++c) sum.rgb[c] = toFixedPoint(weight * (0.1 * c + 0.05 * x));
+            // The odd passes' half: about half of the total, never exactly.
+            PixelSum& odd = block.oddAt(x, y);
+            odd.weight = sum.weight / 2 + (x - y);
+            for (int c = 0; c < 3; ++c) odd.rgb[c] = sum.rgb[c] / 2 + c;
         }
     block.invalidSamples = 2;
     return block;

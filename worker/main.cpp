@@ -1,5 +1,7 @@
 // alphorn-worker: renders units leased from an alphorn-coordinator. See docs/operations.md.
+#include "common/farm/http_server.h"
 #include "common/farm/log.h"
+#include "common/farm/metrics.h"
 #include "common/farm/rpc.h"
 #include "worker/worker.h"
 
@@ -7,6 +9,8 @@
 #include <CLI/CLI.hpp>
 
 #include <csignal>
+#include <cstdio>
+#include <fstream>
 
 using namespace alphorn;
 
@@ -31,6 +35,27 @@ int main(int argc, char** argv) {
     app.add_option("--name", options.name, "Name shown by `alphorn workers` (default: host:pid)");
     app.add_option("--drain-seconds", options.drainSeconds,
                    "On SIGTERM, how long to keep trying to deliver");
+    std::string httpListen, httpPortFile, httpTlsCert, httpTlsKey, metricsTokenFile;
+    bool anonymousMetrics = false;
+    CLI::Option* http = app.add_option(
+        "--http-listen", httpListen,
+        "Serve HTTP on this address (host:port; port 0 picks a free one): /metrics for "
+        "Prometheus. Off by default");
+    app.add_option("--http-port-file", httpPortFile,
+                   "Write the bound HTTP port to this file once listening")
+        ->needs(http);
+    CLI::Option* cert = app.add_option("--http-tls-cert", httpTlsCert,
+                                       "PEM certificate chain: serve HTTPS (with --http-tls-key)")
+                            ->needs(http);
+    app.add_option("--http-tls-key", httpTlsKey, "PEM private key of --http-tls-cert")->needs(cert);
+    cert->needs("--http-tls-key");
+    app.add_option("--metrics-token-file", metricsTokenFile,
+                   "File holding a token that may read /metrics and nothing else (for "
+                   "Prometheus; the worker token reads it too)")
+        ->needs(http);
+    app.add_flag("--http-anonymous-metrics", anonymousMetrics,
+                 "Serve /metrics to anyone, without a token (only on a trusted network)")
+        ->needs(http);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -53,12 +78,36 @@ int main(int argc, char** argv) {
             threadLimit = std::make_unique<tbb::global_control>(
                 tbb::global_control::max_allowed_parallelism, options.threads);
         worker::Worker worker(options);
+        std::unique_ptr<farm::HttpServer> httpServer;
+        if (!httpListen.empty()) {
+            farm::RouteAccess metricsAccess{{options.token}, anonymousMetrics};
+            if (!metricsTokenFile.empty())
+                metricsAccess.tokens.push_back(farm::readTokenFile(metricsTokenFile));
+            httpServer = std::make_unique<farm::HttpServer>(
+                farm::HttpServerOptions{httpListen, httpTlsCert, httpTlsKey});
+            farm::serveMetrics(*httpServer, {farm::WorkerMetrics::registry()}, metricsAccess);
+            httpServer->start();
+            farm::logInfo(
+                "http.listening",
+                {farm::field("address", httpListen), farm::field("port", httpServer->port()),
+                 farm::field("tls", httpServer->tls() ? "on" : "off"),
+                 farm::field("anonymous_metrics", anonymousMetrics ? "yes" : "no")});
+            if (!httpPortFile.empty()) {
+                std::ofstream(httpPortFile + ".tmp") << httpServer->port() << "\n";
+                std::rename((httpPortFile + ".tmp").c_str(), httpPortFile.c_str());
+            }
+        }
+        // SIGTERM (docker stop, systemctl stop, a Kubernetes pod's end) drains: the unit in
+        // hand is finished and delivered, then the worker exits 0. A second signal abandons the
+        // unit, hands it back and exits at once.
         std::thread signalThread([&] {
-            for (;;) {
+            for (int received = 1;; ++received) {
                 int signal = 0;
                 sigwait(&signals, &signal);
                 farm::logInfo("worker.signal",
-                              {farm::field("signal", signal), farm::field("action", "draining")});
+                              {farm::field("signal", signal),
+                               farm::field("action", received == 1 ? "draining"
+                                                                   : "handing back and exiting")});
                 worker.requestStop();
             }
         });

@@ -7,8 +7,10 @@
 #include "common/farm/film_codec.h"
 #include "common/farm/job_scene.h"
 #include "common/farm/log.h"
+#include "common/farm/metrics.h"
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
+#include "common/photon/photon_pass.h"
 #include "common/scene/scene.h"
 
 #include <absl/strings/str_replace.h>
@@ -68,6 +70,26 @@ void crashIfTestHookMatches(const v1::AcquireWorkResponse& lease) {
 void delayIfTestHookSet() {
     if (const char* delay = std::getenv("ALPHORN_TEST_UNIT_DELAY_MS"))
         std::this_thread::sleep_for(std::chrono::milliseconds(std::atoi(delay)));
+}
+
+using Delivery = farm::WorkerMetrics::Delivery;
+
+Delivery deliveryOf(v1::ResultDisposition disposition) {
+    switch (disposition) {
+        case v1::RESULT_MERGED:
+            return Delivery::Merged;
+        case v1::RESULT_DISCARDED:
+            return Delivery::Discarded;
+        default:
+            return Delivery::Recorded;  // a failure or a hand-back
+    }
+}
+
+// Photon paths traced for one pass's data: those of a photon mapper's pass (the volumetric one
+// traces surface and volume photons along the same paths), 0 for other integrators.
+uint64_t photonsTraced(const PassData* pass) {
+    const auto* photons = dynamic_cast<const PhotonPassData*>(pass);
+    return photons ? std::max(photons->emitted, photons->volumeEmitted) : 0;
 }
 
 // Everything the scene a unit is rendered with depends on, as one comparable string.
@@ -190,6 +212,8 @@ void Worker::heartbeatLoop() {
         if (m_mustRegister) continue;
         v1::HeartbeatRequest request;
         request.set_worker_id(m_workerId);
+        // So `alphorn workers` shows this worker draining from the moment it was told to stop.
+        request.set_draining(m_stopRequests > 0);
         for (const auto& [lease, unit] : m_activeLeases) {
             request.add_lease_ids(lease);
             *request.add_held_units() = unit;
@@ -271,7 +295,16 @@ const std::vector<std::shared_ptr<const PassData>>& Worker::passDataFor(JobConte
     // Units of the same passes usually follow each other (all tiles of a chunk come first);
     // keep a few ranges so photon maps are built once per range, but never grow without bound.
     while (context.passes.size() >= 4) context.passes.erase(context.passes.begin());
-    return context.passes[key] = preparePasses(*context.scene, context.seed, begin, end);
+    // A photon mapper without progressive radii keeps one map for every pass: count each pass
+    // data once, not once per pass range (the ranges kept hold it, so its address is not reused).
+    std::set<const PassData*> counted;
+    for (const auto& [range, data] : context.passes)
+        for (const auto& pass : data) counted.insert(pass.get());
+    auto& passes = context.passes[key] = preparePasses(*context.scene, context.seed, begin, end);
+    for (const auto& pass : passes)
+        if (pass && counted.insert(pass.get()).second)
+            farm::WorkerMetrics::passDataBuilt(photonsTraced(pass.get()));
+    return passes;
 }
 
 std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse& lease) {
@@ -292,8 +325,9 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
         header.set_built_pass_data(built);
         FilmBlock block = makeUnitBlock(*job.scene, unit.tile);
         const auto start = std::chrono::steady_clock::now();
+        RenderCounters counters;
         const bool complete =
-            renderUnit(*job.scene, job.seed, unit, passData, block, nullptr, &m_cancelRender);
+            renderUnit(*job.scene, job.seed, unit, passData, block, &counters, &m_cancelRender);
         if (!complete) {
             std::lock_guard lock(m_leaseMutex);
             if (m_fencedLeases.count(lease.lease_id())) {
@@ -315,9 +349,13 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
         header.set_compressed_sha256(farm::sha256Hex(result.compressed));
         const double seconds =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        header.set_rays(counters.rays);
+        header.set_render_seconds(seconds);
+        farm::WorkerMetrics::unitRendered(seconds, counters.samples, counters.rays);
         logInfo("unit.rendered", {field("job", job.jobId), field("unit", lease.unit().unit_index()),
                                   field("seconds", seconds)});
     } catch (const std::exception& e) {
+        farm::WorkerMetrics::unitFailed();
         logWarning("unit.failed",
                    {field("job", lease.unit().job_id()), field("unit", lease.unit().unit_index()),
                     field("error", e.what())});
@@ -334,6 +372,7 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
 
 bool Worker::deliver(Result& result) {
     farm::RetryPolicy retry = makeRetryPolicy();
+    const farm::Stopwatch delivering;
     const auto firstTry = std::chrono::steady_clock::now();
     const auto giveUpAt =
         firstTry + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -351,14 +390,18 @@ bool Worker::deliver(Result& result) {
                 logWarning("result.abandoned",
                            {field("job", result.header.job_id()),
                             field("unit", result.header.unit_index()), field("error", e.what())});
+                farm::WorkerMetrics::resultDelivered(Delivery::Abandoned, delivering.seconds());
                 return false;
             }
             result.header.set_worker_id(m_workerId);
         }
         // The call waits for a coordinator that is away (restarting) and goes out the moment it
         // is back; when stopping, no longer than the drain time left.
+        // A second stop request wants the worker gone: one attempt of at most a second.
         auto timeout = m_options.deliverTimeout;
-        if (m_stopRequests > 0)
+        if (m_stopRequests > 1)
+            timeout = std::min(std::chrono::milliseconds(1000), timeout);
+        else if (m_stopRequests > 0)
             timeout = std::clamp(std::chrono::duration_cast<std::chrono::milliseconds>(
                                      giveUpAt - std::chrono::steady_clock::now()),
                                  std::min(std::chrono::milliseconds(1000), timeout), timeout);
@@ -383,6 +426,8 @@ bool Worker::deliver(Result& result) {
         if (!writeFailed) writer->WritesDone();
         grpc::Status status = writer->Finish();
         if (status.ok()) {
+            farm::WorkerMetrics::resultDelivered(deliveryOf(response.disposition()),
+                                                 delivering.seconds());
             if (retry.failures() > 0)
                 logInfo("result.delivered_late",
                         {field("job", result.header.job_id()),
@@ -406,9 +451,14 @@ bool Worker::deliver(Result& result) {
             logWarning("result.refused", {field("job", result.header.job_id()),
                                           field("unit", result.header.unit_index()),
                                           field("error", status.error_message())});
+            farm::WorkerMetrics::resultDelivered(Delivery::Refused, delivering.seconds());
             return true;
         }
-        if (m_stopRequests > 0 && std::chrono::steady_clock::now() > giveUpAt) return false;
+        if (m_stopRequests > 1 ||
+            (m_stopRequests > 0 && std::chrono::steady_clock::now() > giveUpAt)) {
+            farm::WorkerMetrics::resultDelivered(Delivery::Abandoned, delivering.seconds());
+            return false;
+        }
         if (retry.failures() == 0)
             logWarning("result.undelivered", {field("job", result.header.job_id()),
                                               field("unit", result.header.unit_index()),
@@ -418,10 +468,25 @@ bool Worker::deliver(Result& result) {
     }
 }
 
+void Worker::sayGoodbye() {
+    if (m_mustRegister) return;
+    // The coordinator lists the worker as gone at once instead of after its silence; should
+    // the call fail, that is what happens.
+    v1::HeartbeatRequest request;
+    request.set_worker_id(m_workerId);
+    request.set_draining(true);
+    request.set_exiting(true);
+    v1::HeartbeatResponse response;
+    auto ctx = context(std::chrono::milliseconds(1000));
+    m_stub->Heartbeat(ctx.get(), request, &response);
+}
+
 int Worker::run() {
     registerWithCoordinator();
     m_heartbeat = std::thread([this] { heartbeatLoop(); });
     farm::RetryPolicy retry = makeRetryPolicy();
+    bool drainedByClient = false;
+    farm::Stopwatch askingForWork;
     while (m_stopRequests == 0) {
         if (m_mustRegister) {
             registerWithCoordinator();
@@ -459,7 +524,13 @@ int Worker::run() {
         if (retry.failures() > 0)
             logInfo("coordinator.back", {field("failed_attempts", retry.failures())});
         retry.reset();
+        if (lease.draining() != drainedByClient) {
+            drainedByClient = lease.draining();
+            logInfo(drainedByClient ? "worker.drain_requested" : "worker.undrained",
+                    {field("worker", m_workerId.load()), field("by", "client")});
+        }
         if (!lease.has_work()) continue;
+        farm::WorkerMetrics::leaseWaited(askingForWork.seconds());
         {
             std::lock_guard lock(m_leaseMutex);
             v1::HeldUnit held;
@@ -479,7 +550,16 @@ int Worker::run() {
         std::lock_guard lock(m_leaseMutex);
         m_activeLeases.erase(lease.lease_id());
         m_fencedLeases.erase(lease.lease_id());
+        askingForWork = farm::Stopwatch();
     }
+    // No heartbeat may follow the goodbye: it would list the worker alive again.
+    {
+        std::lock_guard lock(m_leaseMutex);
+        m_finished = true;
+    }
+    m_leaseWake.notify_all();
+    if (m_heartbeat.joinable()) m_heartbeat.join();
+    sayGoodbye();
     logInfo("worker.drained", {field("worker", m_workerId.load())});
     return 0;
 }

@@ -1,7 +1,9 @@
 // The worker's life: register, lease a unit, make sure its job's scene is loaded, render the
 // unit with renderUnit() on all cores while a second thread heartbeats, deliver the result in
 // chunks (retrying through coordinator outages), repeat. SIGTERM drains: no new work, the
-// current unit is finished and delivered (a second SIGTERM hands it back), then exit 0.
+// current unit is finished and delivered, the coordinator is told the worker leaves, then exit
+// 0; a second SIGTERM or SIGINT abandons the unit, hands it back (one call of at most a second)
+// and exits. A worker drained by a client (`alphorn drain`) stays up and idle until undrained.
 // A library (alphorn_worker) so that worker_test.cpp can run it against a scripted coordinator;
 // main.cpp only parses flags and forwards signals.
 #pragma once
@@ -81,6 +83,8 @@ class Worker {
     };
 
     void registerWithCoordinator();
+    // The last call before exiting: a heartbeat saying the worker leaves (best effort).
+    void sayGoodbye();
     void heartbeatLoop();
     JobContext& prepareJob(const v1::JobDescription& job);
     // The per-pass data of passes [begin, end), built or reused; `built` says which.

@@ -420,6 +420,65 @@ TEST_F(WorkerTest, HeartbeatsCarryTheLeaseWhileTheUnitRenders) {
     EXPECT_EQ(m_fake.heartbeats.back().lease_ids_size(), 0);
 }
 
+// SIGTERM (the first stop request): the heartbeats say the worker drains, the unit in hand is
+// finished and delivered, no new unit is taken, and the last call says the worker leaves.
+TEST_F(WorkerTest, AStopRequestFinishesTheUnitTakesNoMoreAndSaysGoodbye) {
+    m_server.start();
+    const TestJob job = makeGoodJob(5);
+    m_fake.queueLease(lease(job, 51, 0));
+    m_fake.queueLease(lease(job, 52, 1));
+    bool drainingSeen = false;
+    m_options.beforeRender = [&](const v1::AcquireWorkResponse& held) {
+        if (held.lease_id() != 51) return;
+        m_worker->requestStop();
+        drainingSeen = m_fake.waitFor([&] {
+            for (const v1::HeartbeatRequest& beat : m_fake.heartbeats)
+                if (beat.draining() && beat.lease_ids_size() == 1 && beat.lease_ids(0) == 51)
+                    return true;
+            return false;
+        });
+    };
+    startWorker();
+    ASSERT_TRUE(m_fake.waitFor([&] {
+        return !m_fake.heartbeats.empty() && m_fake.heartbeats.back().exiting();
+    })) << "the worker did not say it leaves";
+    m_thread.join();
+    EXPECT_EQ(m_exitCode, 0);
+    EXPECT_EQ(m_runError, "");
+    m_worker.reset();
+    EXPECT_TRUE(drainingSeen) << "no heartbeat said the worker drains while it held the unit";
+    const std::vector<Report> reports = m_fake.reportsFor(51);
+    ASSERT_EQ(reports.size(), 1u);
+    EXPECT_FALSE(reports[0].header.handed_back());
+    EXPECT_EQ(deliveredFilm(reports[0]), expectedFilm(job, 0));
+    EXPECT_GT(reports[0].header.rays(), 0u);
+    EXPECT_GT(reports[0].header.render_seconds(), 0.0);
+    EXPECT_TRUE(m_fake.reportsFor(52).empty());
+    EXPECT_EQ(m_fake.leases.size(), 1u) << "a draining worker took a new unit";
+    const v1::HeartbeatRequest& goodbye = m_fake.heartbeats.back();
+    EXPECT_TRUE(goodbye.draining());
+    EXPECT_EQ(goodbye.lease_ids_size(), 0);
+}
+
+// A second stop request (a second SIGTERM or Ctrl-C) abandons the unit, hands it back and exits.
+TEST_F(WorkerTest, ASecondStopRequestHandsTheUnitBackAndExits) {
+    m_server.start();
+    const TestJob job = makeGoodJob(6);
+    m_fake.queueLease(lease(job, 61, 0));
+    m_options.beforeRender = [&](const v1::AcquireWorkResponse&) {
+        m_worker->requestStop();
+        m_worker->requestStop();
+    };
+    startWorker();
+    m_thread.join();
+    EXPECT_EQ(m_exitCode, 0);
+    m_worker.reset();
+    const std::vector<Report> reports = m_fake.reportsFor(61);
+    ASSERT_EQ(reports.size(), 1u);
+    EXPECT_TRUE(reports[0].header.handed_back());
+    EXPECT_TRUE(reports[0].data.empty());
+}
+
 TEST_F(WorkerTest, LeaseFencedByHeartbeatIsDroppedUnrendered) {
     m_server.start();
     const TestJob job = makeGoodJob(4);

@@ -20,6 +20,16 @@ class PerspectiveCamera : public Camera {
         return Color3f(1.0f);
     }
 
+    std::string lightTracingRefusal() const override {
+        return m_projection.isRigid() ? "" : "the camera's toWorld scales or shears";
+    }
+    std::optional<CameraProjection> project(const Point3f& world) const override {
+        return m_projection.project(world);
+    }
+    float rasterPerSolidAngle(const Vector3f& d) const override {
+        return m_projection.rasterPerSolidAngle(d);
+    }
+
     std::string toString() const override { return "perspective camera"; }
 
   private:

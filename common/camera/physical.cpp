@@ -42,6 +42,22 @@ class PhysicalCamera : public Camera {
         return Color3f(1.0f);
     }
 
+    // Light tracing through a lens would need the lens's importance and a second sample of the
+    // aperture per connection; only the pinhole case (apertureRadius 0) is supported.
+    std::string lightTracingRefusal() const override {
+        if (m_apertureRadius > 0.0f)
+            return "light tracing supports the physical camera only as a pinhole (apertureRadius "
+                   "0), got apertureRadius " +
+                   std::to_string(m_apertureRadius);
+        return m_projection.isRigid() ? "" : "the camera's toWorld scales or shears";
+    }
+    std::optional<CameraProjection> project(const Point3f& world) const override {
+        return m_projection.project(world);
+    }
+    float rasterPerSolidAngle(const Vector3f& d) const override {
+        return m_projection.rasterPerSolidAngle(d);
+    }
+
     std::string toString() const override { return "physical (thin lens) camera"; }
 
   private:

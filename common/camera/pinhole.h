@@ -4,7 +4,10 @@
 // apertureRadius 0 render the pinhole image byte for byte.
 #pragma once
 
+#include "common/camera/camera.h"
 #include "common/core/properties.h"
+
+#include <optional>
 
 namespace alphorn {
 
@@ -43,6 +46,10 @@ class PinholeProjection {
             Eigen::Translation3f(-1.0f, -1.0f / aspect, 0.0f);
         m_sampleToCamera = Transform(toSample.matrix() * perspective).inverse();
         m_invOutputSize = Vector2f(1.0f / m_outputSize.x(), 1.0f / m_outputSize.y());
+        m_worldToCamera = m_cameraToWorld.inverse();
+        m_cot = cot;
+        m_aspect = aspect;
+        m_rasterPerPlaneArea = 0.25f * m_outputSize.x() * m_outputSize.y() * aspect * cot * cot;
     }
 
     // The unit direction, in camera space (looking along +z), of the pinhole ray through
@@ -64,11 +71,48 @@ class PinholeProjection {
         ray.maxt = m_farClip * invZ;
     }
 
+    // The inverse of direction() and makeRay() for a pinhole at the origin of the lens plane:
+    // where the world point lands on the image, or nothing when it lies behind the camera,
+    // outside the near/far range or outside the image. Needs a rigid toWorld (checked by
+    // isRigid()), since the raster density is computed in camera space.
+    std::optional<CameraProjection> project(const Point3f& world) const {
+        const Point3f local = m_worldToCamera.applyPoint(world);
+        if (!(local.z() >= m_nearClip && local.z() <= m_farClip)) return std::nullopt;
+        const float x = local.x() / local.z(), y = local.y() / local.z();
+        // direction() maps image u in [0, 1] to x = (1 - 2u) / cot and v in [0, 1] to
+        // y = (1 - 2v) / (aspect cot).
+        const float u = 0.5f * (1.0f - m_cot * x);
+        const float v = 0.5f * (1.0f - m_aspect * m_cot * y);
+        if (!(u >= 0.0f && u <= 1.0f && v >= 0.0f && v <= 1.0f)) return std::nullopt;
+        CameraProjection result;
+        result.raster = Point2f(u * m_outputSize.x(), v * m_outputSize.y());
+        const float cosTheta = local.z() / local.norm();
+        // dRaster/d(x, y) on the plane z = 1 is (W cot / 2)(H aspect cot / 2); the plane's area
+        // per solid angle is 1 / cos^3.
+        result.rasterPerSolidAngle = m_rasterPerPlaneArea / (cosTheta * cosTheta * cosTheta);
+        result.position = m_cameraToWorld.applyPoint(Point3f::Zero());
+        return result;
+    }
+
+    float rasterPerSolidAngle(const Vector3f& worldDirection) const {
+        const Vector3f local = m_worldToCamera.applyVector(worldDirection).normalized();
+        const float cosTheta = local.z();
+        if (!(cosTheta > 0.0f)) return 0.0f;
+        return m_rasterPerPlaneArea / (cosTheta * cosTheta * cosTheta);
+    }
+
+    // Whether toWorld is a rotation and translation (lookat), which project() assumes.
+    bool isRigid() const {
+        const Matrix3f m = m_cameraToWorld.matrix().topLeftCorner<3, 3>();
+        return (m.transpose() * m - Matrix3f::Identity()).cwiseAbs().maxCoeff() < 1e-4f;
+    }
+
     const Transform& cameraToWorld() const { return m_cameraToWorld; }
     float fov() const { return m_fov; }
 
   private:
-    Transform m_sampleToCamera, m_cameraToWorld;
+    Transform m_sampleToCamera, m_cameraToWorld, m_worldToCamera;
+    float m_cot = 1.0f, m_aspect = 1.0f, m_rasterPerPlaneArea = 1.0f;
     Vector2i m_outputSize{1280, 720};
     Vector2f m_invOutputSize;
     float m_fov = 30.0f, m_nearClip = 1e-4f, m_farClip = 1e4f;

@@ -33,14 +33,18 @@ std::string compressFilm(const FilmBlock& block) {
 }
 
 void decompressFilm(const std::string& compressed, FilmBlock& block) {
-    const uint64_t expected = uint64_t(block.width()) * uint64_t(block.height()) * sizeof(PixelSum);
+    const uint64_t expected =
+        uint64_t(block.width()) * uint64_t(block.height()) * block.bytesPerPixel();
     block.deserialize(zstdDecompress(compressed, expected));
+    const auto check = [](const PixelSum& sum, int x, int y) {
+        for (FixedPoint value : {sum.rgb[0], sum.rgb[1], sum.rgb[2], sum.weight})
+            if (value > kMaxDecodedSum || value < -kMaxDecodedSum)
+                fail("film data has an impossible sum at pixel (%d, %d): beyond 2^60", x, y);
+    };
     for (int y = block.y0(); y < block.y0() + block.height(); ++y)
         for (int x = block.x0(); x < block.x0() + block.width(); ++x) {
-            const PixelSum& sum = block.at(x, y);
-            for (FixedPoint value : {sum.rgb[0], sum.rgb[1], sum.rgb[2], sum.weight})
-                if (value > kMaxDecodedSum || value < -kMaxDecodedSum)
-                    fail("film data has an impossible sum at pixel (%d, %d): beyond 2^60", x, y);
+            check(block.at(x, y), x, y);
+            if (block.keepsHalves()) check(block.oddAt(x, y), x, y);
         }
 }
 

@@ -1,5 +1,7 @@
-// Film blocks on the wire and on disk: the exact fixed-point sums, zstd-compressed. Most of a
-// block's 128-bit integers have zero high words, so compression typically shrinks them 4-8x.
+// Film blocks on the wire and on disk: the exact fixed-point sums (the totals, then the odd
+// passes' half, see film.h), zstd-compressed. Most of a block's 128-bit integers have zero high
+// words, so compression typically shrinks them 4-8x. Data of an older Alphorn (totals only) is
+// recognised by its size and refused with a message saying so.
 #pragma once
 
 #include "common/render/film.h"

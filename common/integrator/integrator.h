@@ -13,6 +13,7 @@ namespace alphorn {
 
 class Scene;
 class Sampler;
+class FilmBlock;
 
 // Per-pass state shared by all tiles of one pass (e.g. that pass's photon maps and radius).
 struct PassData {
@@ -43,6 +44,15 @@ class Integrator : public Object {
     // Radiance along `ray`; `pass` is what preparePass returned for the current pass.
     virtual Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,
                        const PassData* pass) const = 0;
+    // Contributions of a pass that land anywhere on the image rather than at the unit's own
+    // camera samples (light paths connected to the camera). A unit adds those that fall on the
+    // pixels [x0, x1) x [y0, y1) of its own tile, and only those, so every such contribution is
+    // added exactly once whatever the tiling. `out` holds at least those pixels.
+    virtual void addPassSplats(const PassData* /*pass*/, int /*x0*/, int /*y0*/, int /*x1*/,
+                               int /*y1*/, FilmBlock& /*out*/) const {}
+    // Whether addPassSplats() adds anything: then Li() alone is not the integrator's estimate,
+    // and whatever samples Li() by itself (the t-test's scene mode) must refuse it.
+    virtual bool hasPassSplats() const { return false; }
 };
 
 }  // namespace alphorn

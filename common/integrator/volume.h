@@ -29,6 +29,19 @@ inline bool isParticipating(const Medium* medium) {
     return medium && !medium->isVacuum();
 }
 
+// Whether anything in the scene needs the volumetric path loop: a participating medium (at the
+// camera or on a mesh) or a null surface to cross. Without, the volumetric path tracers run the
+// surface path tracer itself (path.h), so that a scene pays nothing for media it does not have:
+// the same film as path_mats / path_mis, byte for byte, at their cost (bench_feature_cost).
+inline bool needsVolumetricPaths(const Scene& scene) {
+    if (isParticipating(scene.camera()->medium())) return true;
+    for (const auto& mesh : scene.meshes())
+        if (mesh->bsdf()->isNull() || isParticipating(mesh->insideMedium()) ||
+            isParticipating(mesh->outsideMedium()))
+            return true;
+    return false;
+}
+
 // The distance along `ray` (unit direction) at which it leaves `box`; 0 when it never is inside.
 inline float exitDistance(const Eigen::AlignedBox3f& box, const Ray3f& ray) {
     float tNear = 0.0f, tFar = Infinity;

@@ -6,7 +6,10 @@
 //
 // `progressive` (boolean, the report's): its live preview maps onto our passes — every render
 // is a sum of one-sample passes already — so it is accepted and changes nothing.
+// A scene without media or null surfaces is rendered by path_mats's own loop (see
+// needsVolumetricPaths in volume.h).
 #include "common/integrator/integrator.h"
+#include "common/integrator/path.h"
 #include "common/integrator/volume.h"
 
 namespace alphorn {
@@ -15,10 +18,14 @@ class VolumePathMats : public Integrator {
   public:
     explicit VolumePathMats(const PropertyList& props) { props.getBoolean("progressive", false); }
 
-    void preprocess(const Scene& scene) override { m_mediaBox = mediaBounds(scene); }
+    void preprocess(const Scene& scene) override {
+        m_mediaBox = mediaBounds(scene);
+        m_volumetric = needsVolumetricPaths(scene);
+    }
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,
                const PassData*) const override {
+        if (!m_volumetric) return tracePath(scene, sampler, ray, -1, DirectLight::BSDFSampling);
         return volumePathLi(scene, sampler, ray, m_mediaBox, false);
     }
 
@@ -26,6 +33,7 @@ class VolumePathMats : public Integrator {
 
   private:
     Eigen::AlignedBox3f m_mediaBox;
+    bool m_volumetric = true;
 };
 
 ALPHORN_REGISTER(Integrator, "volume_path_mats", VolumePathMats);

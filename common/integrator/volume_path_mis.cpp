@@ -7,8 +7,10 @@
 // In grey homogeneous media, delta lights are also sampled by equiangular sampling along every
 // segment (volume.h), MIS-weighted against the next-event estimates at free-flight scattering
 // points; `equiangular` (default true) turns it off, for comparisons.
-// `progressive` as in volume_path_mats.
+// `progressive` as in volume_path_mats. A scene without media or null surfaces is rendered by
+// path_mis's own loop (see needsVolumetricPaths in volume.h).
 #include "common/integrator/integrator.h"
+#include "common/integrator/path.h"
 #include "common/integrator/volume.h"
 
 namespace alphorn {
@@ -22,6 +24,7 @@ class VolumePathMis : public Integrator {
 
     void preprocess(const Scene& scene) override {
         m_mediaBox = mediaBounds(scene);
+        m_volumetric = needsVolumetricPaths(scene);
         // Only point-like lights gain from it; other scenes draw no extra numbers.
         m_equiangular = false;
         for (const auto& emitter : scene.emitters())
@@ -30,6 +33,7 @@ class VolumePathMis : public Integrator {
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,
                const PassData*) const override {
+        if (!m_volumetric) return tracePath(scene, sampler, ray, -1, DirectLight::MIS);
         return volumePathLi(scene, sampler, ray, m_mediaBox, true, m_equiangular);
     }
 
@@ -38,6 +42,7 @@ class VolumePathMis : public Integrator {
   private:
     Eigen::AlignedBox3f m_mediaBox;
     bool m_equiangularWanted, m_equiangular = false;
+    bool m_volumetric = true;
 };
 
 ALPHORN_REGISTER(Integrator, "volume_path_mis", VolumePathMis);

@@ -23,6 +23,14 @@
 // removes the part of the density that is known everywhere, so a constant density gives the exact
 // transmittance with no random numbers at all (tests/statistical and medium_test.cpp measure
 // the variance of both).
+//
+// A medium whose coefficients are the same everywhere (plain colours, or textures whose lower and
+// upper bounds agree) is a homogeneous medium, and without a declared `majorant` it is rendered as
+// one: free flight and transmittance by their closed forms (homogeneous.cpp), with equiangular
+// sampling where that applies, instead of tracking that spends random numbers, and ratio
+// tracking's variance, on nothing. Same expected image (the closed forms are what tracking
+// estimates); bench_feature_cost measures the time saved. A declared `majorant` keeps the
+// tracking at that rate, for tests and comparisons.
 #include "common/medium/medium.h"
 #include "common/texture/texture_slot.h"
 
@@ -82,10 +90,19 @@ class HeterogeneousMedium : public Medium {
         // largest of those bounds every channel (0 for a constant density: no tracking at all).
         m_control = m_residual ? lower.min(upper) : Color3f(0.0f);
         m_residualMajorant = m_residual ? (upper - m_control).maxCoeff() : m_majorant;
+        if (!m_hasDeclaredMajorant && isConstant(m_sigmaS) && isConstant(m_sigmaA)) {
+            PropertyList props(source() + " (constant coefficients: a homogeneous medium)");
+            props.setColor("sigmaS", m_density * m_sigmaS.upperBound().max(0.0f));
+            props.setColor("sigmaA", m_density * m_sigmaA.upperBound().max(0.0f));
+            m_homogeneous = std::static_pointer_cast<Medium>(
+                ObjectFactory::create(ObjectKind::Medium, "homogeneous", props));
+            m_homogeneous->activate();
+        }
     }
 
     MediumSample sampleDistance(const Ray3f& ray, float tMax, Sampler& sampler,
                                 int& hero) const override {
+        if (m_homogeneous) return m_homogeneous->sampleDistance(ray, tMax, sampler, hero);
         MediumSample result;
         if (isVacuum()) return result;
         const int h = heroChannel(hero, sampler);
@@ -127,6 +144,7 @@ class HeterogeneousMedium : public Medium {
     }
 
     Color3f transmittance(const Ray3f& ray, float tMax, Sampler& sampler) const override {
+        if (m_homogeneous) return m_homogeneous->transmittance(ray, tMax, sampler);
         if (isVacuum()) return Color3f(1.0f);
         Color3f result = beerLambert(m_control, tMax);
         if (!(m_residualMajorant > 0.0f)) return result;
@@ -143,9 +161,16 @@ class HeterogeneousMedium : public Medium {
     }
 
     bool isVacuum() const override { return !(m_majorant > 0.0f); }
-    float majorant() const { return m_majorant; }
+    std::optional<GreyHomogeneous> greyHomogeneous() const override {
+        return m_homogeneous ? m_homogeneous->greyHomogeneous() : std::nullopt;
+    }
 
     std::string toString() const override {
+        if (m_homogeneous)
+            return absl::StrFormat(
+                "heterogeneous medium, sigmaS %s, sigmaA %s, density %g, constant: rendered as a "
+                "homogeneous medium",
+                m_sigmaS.toString(), m_sigmaA.toString(), m_density);
         return absl::StrFormat(
             "heterogeneous medium, sigmaS %s, sigmaA %s, density %g, majorant %g",
             m_sigmaS.toString(), m_sigmaA.toString(), m_density, m_majorant);
@@ -153,6 +178,10 @@ class HeterogeneousMedium : public Medium {
 
   private:
     static bool isNonNegativeFinite(const Color3f& c) { return c.allFinite() && c.minCoeff() >= 0; }
+    // The same value everywhere (after the clamp of negative values to zero).
+    static bool isConstant(const TexturedColor& slot) {
+        return (slot.lowerBound().max(0.0f) == slot.upperBound().max(0.0f)).all();
+    }
 
     void coefficients(const Point3f& p, Color3f& sigmaS, Color3f& sigmaA) const {
         sigmaS = m_density * m_sigmaS.eval(Point2f::Zero(), p).max(0.0f);
@@ -172,6 +201,7 @@ class HeterogeneousMedium : public Medium {
     float m_majorant = 0.0f;
     Color3f m_control = Color3f(0.0f);
     float m_residualMajorant = 0.0f;
+    std::shared_ptr<Medium> m_homogeneous;  // set for constant coefficients (see the top)
 };
 
 ALPHORN_REGISTER(Medium, "heterogeneous", HeterogeneousMedium);

@@ -51,8 +51,9 @@ std::shared_ptr<Medium> homogeneous(const std::string& sigmaS, const std::string
                         sigmaS, sigmaA));
 }
 
-// A heterogeneous medium whose sigmaS and sigmaA are constant textures (the medium still
-// tracks: it cannot know the texture is constant except through its bounds).
+// A heterogeneous medium whose sigmaS and sigmaA are constant textures. Without a declared
+// majorant it is rendered as the homogeneous medium it is; pass a majorant in `extra` to test the
+// tracking itself.
 std::shared_ptr<Medium> constantHeterogeneous(const std::string& sigmaS, const std::string& sigmaA,
                                               const std::string& extra = "") {
     return parseAs<Medium>("constant_heterogeneous.xml",
@@ -152,23 +153,58 @@ TEST(HomogeneousMedium, ChromaticFreeFlightIsUnbiasedPerChannel) {
 }
 
 TEST(HeterogeneousMedium, ConstantDensityEqualsHomogeneous) {
-    // Delta tracking with a hero channel and spectral MIS against the homogeneous closed forms.
-    expectUnbiasedFreeFlight(*constantHeterogeneous("0.5, 3, 0", "0.2, 0, 1"), Color3f(0.5, 3, 0),
-                             Color3f(0.7, 3, 1), 0.9f, 3, "constant heterogeneous");
+    // Delta tracking with a hero channel and spectral MIS against the homogeneous closed forms
+    // (the declared majorant is the largest extinction: the tracking has no null collisions).
+    expectUnbiasedFreeFlight(
+        *constantHeterogeneous("0.5, 3, 0", "0.2, 0, 1", "<float name=\"majorant\" value=\"3\"/>"),
+        Color3f(0.5, 3, 0), Color3f(0.7, 3, 1), 0.9f, 3, "constant heterogeneous");
     // With a larger declared majorant the tracking takes null collisions; still unbiased.
     expectUnbiasedFreeFlight(*constantHeterogeneous("1.8, 1.8, 0.2", "0.2, 0.2, 1.8",
                                                     "<float name=\"majorant\" value=\"5\"/>"),
                              Color3f(1.8, 1.8, 0.2), Color3f(2.0f), 0.8f, 4,
                              "constant heterogeneous, majorant 5");
     // Residual ratio tracking with the density's lower bound as control is exact here.
-    auto residual = constantHeterogeneous("0.5, 3, 0", "0.2, 0, 1",
-                                          "<boolean name=\"residual\" value=\"true\"/>");
+    auto residual = constantHeterogeneous(
+        "0.5, 3, 0", "0.2, 0, 1",
+        "<boolean name=\"residual\" value=\"true\"/><float name=\"majorant\" value=\"3\"/>");
     auto reference = homogeneous("0.5, 3, 0", "0.2, 0, 1");
     CountingSampler sampler(5);
     const Color3f a = residual->transmittance(kRay, 0.9f, sampler);
     const Color3f b = reference->transmittance(kRay, 0.9f, sampler);
     for (int c = 0; c < 3; ++c) EXPECT_EQ(a[c], b[c]);
     EXPECT_EQ(sampler.draws, 0u);
+}
+
+// Without a declared majorant a constant medium is the homogeneous one: the same numbers drawn
+// and the same results, bit for bit, for free flight and transmittance alike; with one (or with
+// a texture that varies) it tracks.
+TEST(HeterogeneousMedium, ConstantCoefficientsRenderAsHomogeneous) {
+    for (const auto& [sigmaS, sigmaA] : {std::pair("0.5, 3, 0", "0.2, 0, 1"),
+                                         std::pair("1.8", "0.2"), std::pair("4, 4, 4", "0")}) {
+        auto constant = constantHeterogeneous(sigmaS, sigmaA);
+        auto reference = homogeneous(sigmaS, sigmaA);
+        CountingSampler a(21), b(21);
+        for (int i = 0; i < 2000; ++i) {
+            int heroA = -1, heroB = -1;
+            const float tMax = 0.1f + 0.001f * float(i);
+            const MediumSample x = constant->sampleDistance(kRay, tMax, a, heroA);
+            const MediumSample y = reference->sampleDistance(kRay, tMax, b, heroB);
+            ASSERT_EQ(x.event, y.event) << sigmaS << " / " << sigmaA << " sample " << i;
+            ASSERT_EQ(x.t, y.t);
+            ASSERT_TRUE((x.weight == y.weight).all() && (x.pdfRatio == y.pdfRatio).all());
+            ASSERT_TRUE(
+                (constant->transmittance(kRay, tMax, a) == reference->transmittance(kRay, tMax, b))
+                    .all());
+        }
+        EXPECT_EQ(a.draws, b.draws);
+        EXPECT_EQ(constant->greyHomogeneous().has_value(),
+                  reference->greyHomogeneous().has_value());
+    }
+    // A declared majorant keeps the tracking: its transmittance is a ratio-tracking estimate.
+    auto tracked = constantHeterogeneous("1", "0", "<float name=\"majorant\" value=\"2\"/>");
+    CountingSampler sampler(22);
+    tracked->transmittance(kRay, 1.0f, sampler);
+    EXPECT_GT(sampler.draws, 0u);
 }
 
 // Ratio tracking with density c under majorant mu along d: mean e^(-cd), variance
@@ -303,7 +339,9 @@ TEST(Medium, ZeroDensityIsVacuum) {
 // as it should); scattering happens within the first few mean free paths.
 TEST(Medium, DenseMediaStayFiniteAndBounded) {
     auto dense = homogeneous("5000, 5000, 100", "5000, 5000, 9900");
-    auto denseHeterogeneous = constantHeterogeneous("5000, 5000, 100", "5000, 5000, 9900");
+    // Tracked (a declared majorant): a constant one would be rendered as the homogeneous one.
+    auto denseHeterogeneous = constantHeterogeneous("5000, 5000, 100", "5000, 5000, 9900",
+                                                    "<float name=\"majorant\" value=\"1e4\"/>");
     for (const auto& medium : {dense, denseHeterogeneous}) {
         CountingSampler sampler(12);
         for (int i = 0; i < 10000; ++i) {

@@ -6,42 +6,84 @@
 
 namespace alphorn {
 
-FilmBlock::FilmBlock(int x0, int y0, int width, int height)
+FilmBlock::FilmBlock(int x0, int y0, int width, int height, PassHalves halves)
     : m_x0(x0),
       m_y0(y0),
       m_width(width),
       m_height(height),
-      m_pixels(static_cast<size_t>(width) * height) {}
+      m_halves(halves),
+      m_pixels(static_cast<size_t>(width) * height),
+      m_odd(halves == PassHalves::Kept ? m_pixels.size() : 0) {}
 
 void FilmBlock::clear() {
     std::fill(m_pixels.begin(), m_pixels.end(), PixelSum{});
+    std::fill(m_odd.begin(), m_odd.end(), PixelSum{});
     invalidSamples = 0;
 }
 
-void FilmBlock::add(const FilmBlock& other) {
-    int xBegin = std::max(m_x0, other.m_x0),
-        xEnd = std::min(m_x0 + m_width, other.m_x0 + other.m_width);
-    int yBegin = std::max(m_y0, other.m_y0),
-        yEnd = std::min(m_y0 + m_height, other.m_y0 + other.m_height);
+namespace {
+
+// Calls f(x, y) for every pixel the two blocks share.
+template <typename F>
+void forOverlap(const FilmBlock& a, const FilmBlock& b, F&& f) {
+    const int xBegin = std::max(a.x0(), b.x0()),
+              xEnd = std::min(a.x0() + a.width(), b.x0() + b.width());
+    const int yBegin = std::max(a.y0(), b.y0()),
+              yEnd = std::min(a.y0() + a.height(), b.y0() + b.height());
     for (int y = yBegin; y < yEnd; ++y)
-        for (int x = xBegin; x < xEnd; ++x) at(x, y) += other.at(x, y);
+        for (int x = xBegin; x < xEnd; ++x) f(x, y);
+}
+
+}  // namespace
+
+void FilmBlock::add(const FilmBlock& other) {
+    if (keepsHalves() && !other.keepsHalves())
+        fail("cannot add a film without pass halves into one that keeps them");
+    if (keepsHalves())
+        forOverlap(*this, other, [&](int x, int y) {
+            at(x, y) += other.at(x, y);
+            oddAt(x, y) += other.oddAt(x, y);
+        });
+    else
+        forOverlap(*this, other, [&](int x, int y) { at(x, y) += other.at(x, y); });
     invalidSamples += other.invalidSamples;
+}
+
+void FilmBlock::addPassesOfParity(const FilmBlock& samples, bool oddPasses) {
+    if (oddPasses && keepsHalves())
+        forOverlap(*this, samples, [&](int x, int y) {
+            at(x, y) += samples.at(x, y);
+            oddAt(x, y) += samples.at(x, y);
+        });
+    else
+        forOverlap(*this, samples, [&](int x, int y) { at(x, y) += samples.at(x, y); });
+    invalidSamples += samples.invalidSamples;
 }
 
 static_assert(sizeof(PixelSum) == 64, "PixelSum must be four packed 128-bit integers");
 
 std::string FilmBlock::serialize() const {
     // x86-64 and aarch64 are little-endian; the bytes are the in-memory integers.
-    std::string bytes(m_pixels.size() * sizeof(PixelSum), '\0');
-    if (!m_pixels.empty()) std::memcpy(bytes.data(), m_pixels.data(), bytes.size());
+    const size_t half = m_pixels.size() * sizeof(PixelSum);
+    std::string bytes(half + m_odd.size() * sizeof(PixelSum), '\0');
+    if (!m_pixels.empty()) std::memcpy(bytes.data(), m_pixels.data(), half);
+    if (!m_odd.empty()) std::memcpy(bytes.data() + half, m_odd.data(), bytes.size() - half);
     return bytes;
 }
 
 void FilmBlock::deserialize(const std::string& bytes) {
-    if (bytes.size() != m_pixels.size() * sizeof(PixelSum))
+    const size_t half = m_pixels.size() * sizeof(PixelSum);
+    if (bytes.size() != m_pixels.size() * bytesPerPixel()) {
+        if (keepsHalves() && bytes.size() == half && half != 0)
+            fail(
+                "film data has no pass halves (written by an older Alphorn): a %dx%d block "
+                "needs %zu bytes with its odd passes' sums, got %zu",
+                m_width, m_height, m_pixels.size() * bytesPerPixel(), bytes.size());
         fail("film data has %zu bytes, expected %zu for a %dx%d block", bytes.size(),
-             m_pixels.size() * sizeof(PixelSum), m_width, m_height);
-    if (!bytes.empty()) std::memcpy(m_pixels.data(), bytes.data(), bytes.size());
+             m_pixels.size() * bytesPerPixel(), m_width, m_height);
+    }
+    if (!m_pixels.empty()) std::memcpy(m_pixels.data(), bytes.data(), half);
+    if (!m_odd.empty()) std::memcpy(m_odd.data(), bytes.data() + half, bytes.size() - half);
 }
 
 Image resolveImage(const FilmBlock& film, int width, int height) {

@@ -6,6 +6,10 @@
 // which threads, tiles or workers add their parts: this is how a render on one machine, on two
 // workers, or with a worker killed midway gives the same bytes (see
 // docs/architecture.md for why this beats a canonical merge order).
+//
+// Beside the sums of all passes a film keeps the sums of its odd passes (passes 1, 3, 5, ...),
+// also exact; the even passes' sums are the difference. The two halves are independent
+// renders of the same image, and their difference measures its noise (error_estimate.h).
 #pragma once
 
 #include "common/core/color.h"
@@ -46,39 +50,63 @@ inline double fromFixedPoint(FixedPoint value) {
     return static_cast<double>(value) / kFixedPointScale;
 }
 
+// Whether a block keeps the odd passes' sums beside the totals. Blocks that hold the samples of
+// passes of one parity only (a thread's scratch film) need not; a checkpoint written before the
+// halves existed has none (its film has no error estimate).
+enum class PassHalves : uint8_t { Kept, None };
+
 // A rectangle of pixel sums: [x0, x0 + width) x [y0, y0 + height) in image pixels. The
 // rectangle may reach outside the image (a tile plus its filter border).
 class FilmBlock {
   public:
     FilmBlock() = default;
-    FilmBlock(int x0, int y0, int width, int height);
+    FilmBlock(int x0, int y0, int width, int height, PassHalves halves = PassHalves::Kept);
 
     int x0() const { return m_x0; }
     int y0() const { return m_y0; }
     int width() const { return m_width; }
     int height() const { return m_height; }
 
-    PixelSum& at(int x, int y) { return m_pixels[(y - m_y0) * m_width + (x - m_x0)]; }
-    const PixelSum& at(int x, int y) const { return m_pixels[(y - m_y0) * m_width + (x - m_x0)]; }
+    bool keepsHalves() const { return m_halves == PassHalves::Kept; }
+
+    // The sums of all passes.
+    PixelSum& at(int x, int y) { return m_pixels[index(x, y)]; }
+    const PixelSum& at(int x, int y) const { return m_pixels[index(x, y)]; }
+    // The sums of the odd passes only (keepsHalves() must hold); the even passes' sums are
+    // at() minus these.
+    PixelSum& oddAt(int x, int y) { return m_odd[index(x, y)]; }
+    const PixelSum& oddAt(int x, int y) const { return m_odd[index(x, y)]; }
     bool contains(int x, int y) const {
         return x >= m_x0 && y >= m_y0 && x < m_x0 + m_width && y < m_y0 + m_height;
     }
 
     // Adds the overlapping part of another block (exact, so any order gives the same sums).
+    // Throws Error when this block keeps halves and the other does not: its samples could not
+    // be split by pass parity.
     void add(const FilmBlock& other);
+    // Adds the overlapping part of a block holding samples of passes of one parity only: odd
+    // passes count in both the totals and the odd half, even passes in the totals only.
+    void addPassesOfParity(const FilmBlock& samples, bool oddPasses);
     void clear();
 
-    // Raw little-endian bytes of the sums, for checkpoints and the wire.
+    // Bytes per pixel of serialize(): the totals, and the odd half when kept.
+    size_t bytesPerPixel() const { return sizeof(PixelSum) * (keepsHalves() ? 2 : 1); }
+    // Raw little-endian bytes of the sums (all totals, then the odd half when kept), for
+    // checkpoints and the wire.
     std::string serialize() const;
-    // Throws Error when the bytes do not describe a block of this shape.
+    // Throws Error when the bytes do not describe a block of this shape and halves.
     void deserialize(const std::string& bytes);
 
     // Samples rejected as NaN, infinite or beyond the fixed-point range (never clamped).
     uint64_t invalidSamples = 0;
 
   private:
+    size_t index(int x, int y) const { return size_t(y - m_y0) * m_width + size_t(x - m_x0); }
+
     int m_x0 = 0, m_y0 = 0, m_width = 0, m_height = 0;
+    PassHalves m_halves = PassHalves::Kept;
     std::vector<PixelSum> m_pixels;
+    std::vector<PixelSum> m_odd;  // empty unless the halves are kept
 };
 
 // A float RGB image, rows top to bottom.

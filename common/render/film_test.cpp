@@ -40,6 +40,52 @@ TEST(FilmBlock, SerializeRoundTripsAndRejectsWrongSize) {
     EXPECT_THROW(c.deserialize(a.serialize()), Error);
 }
 
+// Samples of odd passes count in the totals and the odd half, even passes in the totals only;
+// adding films adds both, and the halves survive serialization.
+TEST(FilmBlock, KeepsTheOddPassesHalf) {
+    FilmBlock even(0, 0, 2, 1, PassHalves::None), odd(0, 0, 2, 1, PassHalves::None);
+    even.at(0, 0).rgb[0] = toFixedPoint(1.0);
+    even.at(0, 0).weight = toFixedPoint(1.0);
+    odd.at(0, 0).rgb[0] = toFixedPoint(3.0);
+    odd.at(0, 0).weight = toFixedPoint(2.0);
+    FilmBlock unit(0, 0, 2, 1);
+    unit.addPassesOfParity(even, false);
+    unit.addPassesOfParity(odd, true);
+    EXPECT_EQ(unit.at(0, 0).rgb[0], toFixedPoint(4.0));
+    EXPECT_EQ(unit.oddAt(0, 0).rgb[0], toFixedPoint(3.0));
+    EXPECT_EQ(unit.oddAt(0, 0).weight, toFixedPoint(2.0));
+    FilmBlock film(-1, 0, 4, 1);
+    film.add(unit);
+    film.add(unit);
+    EXPECT_EQ(film.at(0, 0).weight, toFixedPoint(6.0));
+    EXPECT_EQ(film.oddAt(0, 0).weight, toFixedPoint(4.0));
+    FilmBlock back(-1, 0, 4, 1);
+    back.deserialize(film.serialize());
+    EXPECT_EQ(back.serialize(), film.serialize());
+    EXPECT_EQ(back.oddAt(0, 0).rgb[0], toFixedPoint(6.0));
+    EXPECT_EQ(film.serialize().size(), 4u * 2 * sizeof(PixelSum));
+}
+
+// A film that keeps halves cannot take samples it cannot split; one without halves takes any.
+TEST(FilmBlock, RefusesToMixFilmsWithoutHalvesIntoHalves) {
+    FilmBlock withHalves(0, 0, 2, 2), without(0, 0, 2, 2, PassHalves::None);
+    EXPECT_THROW(withHalves.add(without), Error);
+    without.add(withHalves);
+    EXPECT_FALSE(without.keepsHalves());
+}
+
+// Data of an older Alphorn (totals only) gets a message saying so, not a bare size mismatch.
+TEST(FilmBlock, OldFormatWithoutHalvesIsNamed) {
+    FilmBlock old(0, 0, 3, 2, PassHalves::None);
+    FilmBlock current(0, 0, 3, 2);
+    try {
+        current.deserialize(old.serialize());
+        FAIL() << "totals without halves were accepted";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("no pass halves"), std::string::npos) << e.what();
+    }
+}
+
 TEST(FilmBlock, ResolveDividesByWeight) {
     FilmBlock film(0, 0, 2, 1);
     film.at(1, 0).rgb[0] = toFixedPoint(3.0);

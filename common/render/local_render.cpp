@@ -10,7 +10,8 @@
 namespace alphorn {
 
 FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
-                      const ProgressCallback& progress, RenderCounters* externalCounters) {
+                      const ProgressCallback& progress, RenderCounters* externalCounters,
+                      RenderStatus* finalStatus) {
     const Vector2i size = scene.camera()->outputSize();
     FilmBlock film(0, 0, size.x(), size.y());
     std::vector<Tile> tiles = makeTiles(size.x(), size.y(), settings.tileSize);
@@ -31,9 +32,15 @@ FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
     RenderCounters& counters = externalCounters ? *externalCounters : localCounters;
     std::mutex filmMutex;
     const uint32_t chunk = std::max<uint32_t>(1, settings.passesPerUnit);
-    for (uint32_t begin = 0; begin < settings.passes; begin += chunk) {
+    const Tile estimateRegion = settings.crop ? *settings.crop : Tile{0, 0, size.x(), size.y()};
+    RenderStatus status;
+    status.passesTotal = settings.passes;
+    status.samplesTotal = uint64_t(settings.passes) * pixelsRendered;
+    for (uint32_t begin = 0; begin < settings.passes && !status.targetReached;) {
         if (settings.stop && settings.stop->load()) break;
-        const uint32_t end = std::min(settings.passes, begin + chunk);
+        // Chunks end at every decision point (units never change the sums, so this is free).
+        const uint32_t end =
+            std::min({settings.passes, begin + chunk, nextDecisionPasses(begin, settings.passes)});
         // Pass data (photon maps) is built once and shared by every tile of these passes.
         const auto passData = preparePasses(scene, settings.seed, begin, end);
         tbb::parallel_for(size_t(0), tiles.size(), [&](size_t i) {
@@ -43,16 +50,18 @@ FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
             std::lock_guard lock(filmMutex);
             film.add(block);
         });
-        if (progress) {
-            RenderStatus status;
-            status.passesDone = end;
-            status.passesTotal = settings.passes;
-            status.samplesDone = counters.samples.load();
-            status.samplesTotal = uint64_t(settings.passes) * pixelsRendered;
-            status.rays = counters.rays.load();
-            progress(status);
+        status.passesDone = end;
+        status.samplesDone = counters.samples.load();
+        status.rays = counters.rays.load();
+        if (isDecisionPasses(end, settings.passes)) {
+            status.estimate = estimateError(film, estimateRegion, end);
+            status.targetReached =
+                settings.targetError && reachesTarget(status.estimate, *settings.targetError);
         }
+        if (progress) progress(status);
+        begin = end;
     }
+    if (finalStatus) *finalStatus = status;
     return film;
 }
 

@@ -2,6 +2,7 @@
 // exact merge as the farm, without sockets ("a coordinator and a worker in one process").
 #pragma once
 
+#include "common/render/error_estimate.h"
 #include "common/render/unit.h"
 
 #include <atomic>
@@ -22,6 +23,10 @@ struct RenderSettings {
     // When set, only the tiles whose samples reach these pixels (through the reconstruction
     // filter) are rendered: the film's sums over the crop are exactly those of the whole image.
     std::optional<Tile> crop;
+    // When set, `passes` is a cap: rendering stops at the first decision point
+    // (nextDecisionPasses) whose error estimate over the image (or the crop) is at most this
+    // relative RMSE. The stopping pass depends on nothing but the scene, seed and target.
+    std::optional<double> targetError;
 };
 
 struct RenderStatus {
@@ -30,13 +35,20 @@ struct RenderStatus {
     uint64_t samplesDone = 0;
     uint64_t samplesTotal = 0;
     uint64_t rays = 0;
+    // The error estimate at the last decision point passed (nothing before the first, or when it
+    // cannot be made), and whether it stopped the render at the target.
+    std::optional<ErrorEstimate> estimate;
+    bool targetReached = false;
 };
 
 // Called from the rendering thread after each chunk of passes.
 using ProgressCallback = std::function<void(const RenderStatus&)>;
 
-// Renders all passes (or those before settings.stop) and returns the film over the whole image.
+// Renders all passes (or those before settings.stop, or up to the decision point that reaches
+// settings.targetError) and returns the film over the whole image. `finalStatus`, when given,
+// receives the status after the last pass rendered.
 FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
-                      const ProgressCallback& progress = {}, RenderCounters* counters = nullptr);
+                      const ProgressCallback& progress = {}, RenderCounters* counters = nullptr,
+                      RenderStatus* finalStatus = nullptr);
 
 }  // namespace alphorn

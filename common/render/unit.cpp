@@ -85,22 +85,28 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
         fail("renderUnit: pass data for %zu passes, expected %zu", passData.size(), passes);
     std::atomic<bool> cancelled{false};
 
-    // Work items are (pass, row) pairs. Each thread renders into a block of its own, made once
+    // Work items are (pass, row) pairs. Each thread renders into blocks of its own, made once
     // per unit (a block per task cost a sixth of a Cornell box render in allocation and adding),
     // and the blocks are added to `out` exactly: the partitioning chosen by TBB, and which
-    // thread took which rows, cannot change the result.
+    // thread took which rows, cannot change the result. A thread keeps even and odd passes in
+    // separate blocks, so a sample is splatted into one sum only, whatever `out` keeps.
     struct ThreadFilm {
-        FilmBlock block;
+        FilmBlock passesOfParity[2];  // [0]: even passes, [1]: odd passes
         std::unique_ptr<Sampler> sampler;
     };
     tbb::enumerable_thread_specific<ThreadFilm> threadFilms([&] {
-        return ThreadFilm{FilmBlock(out.x0(), out.y0(), out.width(), out.height()),
+        const bool bothParities = passes > 1;
+        const auto block = [&](bool used) {
+            return used ? FilmBlock(out.x0(), out.y0(), out.width(), out.height(), PassHalves::None)
+                        : FilmBlock();
+        };
+        const bool firstIsOdd = unit.passBegin % 2 == 1;
+        return ThreadFilm{{block(bothParities || !firstIsOdd), block(bothParities || firstIsOdd)},
                           scene.sampler()->clone()};
     });
     tbb::parallel_for(
         tbb::blocked_range<size_t>(0, passes * rows), [&](const tbb::blocked_range<size_t>& range) {
             ThreadFilm& threadFilm = threadFilms.local();
-            FilmBlock& local = threadFilm.block;
             Sampler* sampler = threadFilm.sampler.get();
             const uint64_t raysBefore = raysTracedByThisThread();
             uint64_t samples = 0;
@@ -113,6 +119,7 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
                 const uint32_t pass = unit.passBegin + static_cast<uint32_t>(passOffset);
                 const int y = tile.y0 + static_cast<int>(item % rows);
                 const PassData* data = passData[passOffset].get();
+                FilmBlock& local = threadFilm.passesOfParity[pass % 2];
                 for (int x = tile.x0; x < tile.x1; ++x) {
                     const uint64_t pixelIndex = static_cast<uint64_t>(y) * width + x;
                     sampler->startStream(seed, pass, pixelIndex, StreamPurpose::Camera);
@@ -130,7 +137,21 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
                 counters->rays += raysTracedByThisThread() - raysBefore;
             }
         });
-    for (const ThreadFilm& threadFilm : threadFilms) out.add(threadFilm.block);
+    for (const ThreadFilm& threadFilm : threadFilms)
+        for (int parity = 0; parity < 2; ++parity)
+            out.addPassesOfParity(threadFilm.passesOfParity[parity], parity == 1);
+    // Light paths splat onto the whole image (bidirectional integrators): each unit adds the
+    // part on its own tile, into the half of each pass's parity.
+    if (!cancelled && integrator.hasPassSplats()) {
+        FilmBlock splats[2] = {
+            FilmBlock(out.x0(), out.y0(), out.width(), out.height(), PassHalves::None),
+            FilmBlock(out.x0(), out.y0(), out.width(), out.height(), PassHalves::None)};
+        for (size_t i = 0; i < passes; ++i)
+            integrator.addPassSplats(passData[i].get(), tile.x0, tile.y0, tile.x1, tile.y1,
+                                     splats[(unit.passBegin + i) % 2]);
+        for (int parity = 0; parity < 2; ++parity)
+            out.addPassesOfParity(splats[parity], parity == 1);
+    }
     return !cancelled;
 }
 

@@ -2,6 +2,8 @@
 
 #include <absl/strings/str_format.h>
 
+#include <iostream>
+
 namespace alphorn {
 
 Scene::Scene(const PropertyList&) {}
@@ -47,6 +49,13 @@ void Scene::activate() {
             ObjectFactory::create(ObjectKind::Sampler, "sobol", props));
         m_sampler->activate();
     }
+    // Not an error (the normals and ao integrators need no light), but every other integrator
+    // renders such a scene black, which a user should hear about before the render, not after.
+    if (m_emitters.empty())
+        std::cerr << absl::StrFormat(
+            "warning: %s: the scene has no emitter; every integrator that transports light "
+            "renders it black\n",
+            source());
     m_accel.build(m_meshes);
     m_powerPdf.clear();
     for (const auto& emitter : m_emitters) {

@@ -78,9 +78,18 @@ class StudentsTTest : public StatisticalTest {
                 fail("%zu references for %zu scenes: give one reference per scene",
                      m_references.size(), m_scenes.size());
             if (!m_angles.empty()) fail("\"angles\" applies to BSDFs only, not to scenes");
-            for (const auto& scene : m_scenes)
+            for (const auto& scene : m_scenes) {
                 if (scene->camera()->outputSize().minCoeff() <= 0)
                     scene->fail("the camera has an empty image");
+                // Light tracing reaches the image only through the film (renderUnit), never
+                // through the Li() samples this test draws: the mean would miss it.
+                if (scene->integrator()->hasPassSplats())
+                    scene->fail(
+                        "the integrator (%s) splats light paths onto the whole image, which the "
+                        "t-test's samples of single camera rays cannot see; test it on rendered "
+                        "passes instead (as common/integrator/vcm_test.cpp does)",
+                        scene->integrator()->toString());
+            }
         } else if (!m_bsdfs.empty()) {
             if (m_passes > 1) fail("\"passes\" applies to scenes only, not to BSDFs");
             // angles and references are parallel lists, one entry per test case; the BSDF

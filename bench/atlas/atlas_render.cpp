@@ -1,0 +1,229 @@
+// The renderer and error meter of the speed-vs-accuracy atlas (bench/atlas/run_atlas.py drives
+// it; docs/accuracy.md shows the results). Three modes:
+//
+//   bench_atlas_render render SCENE --integrator TYPE [--set KIND:NAME=VALUE]... [--size WxH]
+//       [--crop X0,Y0,X1,Y1] [--seed S] --passes N1,N2,... [--cpu-budget SECONDS]
+//       [--reference REF.exr] [--write-exr OUT.exr]
+//     Replaces the scene's integrator by TYPE with the given parameters (KIND is int, float, bool
+//     or string), then renders the crop once for every pass count of the ladder, each render from
+//     pass 0 (so each point costs what a user asking for that many passes would pay). Prints one
+//     CSV row per render: passes, wall seconds, CPU seconds of the whole process (all threads),
+//     the relative RMSE against REF.exr (empty without a reference) and the film's own predicted
+//     relative RMSE. The ladder stops early once the next render would push the total CPU time
+//     over the budget (CPU time: the machine may be shared, and wall time then measures the
+//     others' load as much as ours). --write-exr writes the image of the last render done
+//     (the references).
+//
+//   bench_atlas_render compare A.exr B.exr      prints the relative RMSE of A against B
+//   bench_atlas_render average A.exr B.exr OUT.exr   writes the pixelwise mean of A and B
+//
+// Relative RMSE: sqrt(mean over pixels of (Y - Y_ref)²) / mean over pixels of Y_ref, with Y the
+// Rec. 709 luminance. Dividing by the mean rather than per pixel keeps near-black pixels from
+// dominating, and makes the figure comparable across scenes of different brightness.
+#include "common/render/image_io.h"
+#include "common/render/local_render.h"
+#include "common/scene/parser.h"
+#include "common/scene/scene.h"
+
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace alphorn;
+
+namespace {
+
+[[noreturn]] void usageError(const std::string& problem) {
+    std::fprintf(stderr, "bench_atlas_render: %s (see the usage at the top of atlas_render.cpp)\n",
+                 problem.c_str());
+    std::exit(2);
+}
+
+double processCpuSeconds() {
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    auto toSeconds = [](const timeval& t) { return double(t.tv_sec) + 1e-6 * double(t.tv_usec); };
+    return toSeconds(usage.ru_utime) + toSeconds(usage.ru_stime);
+}
+
+std::vector<long> parseNumbers(const std::string& text, char separator, const char* what) {
+    std::vector<long> numbers;
+    std::stringstream stream(text);
+    std::string item;
+    while (std::getline(stream, item, separator)) {
+        char* end = nullptr;
+        const long value = std::strtol(item.c_str(), &end, 10);
+        if (item.empty() || *end != '\0')
+            usageError(std::string(what) + ": bad number \"" + item + "\"");
+        numbers.push_back(value);
+    }
+    return numbers;
+}
+
+double relativeRmse(const Image& image, const Image& reference) {
+    if (image.width != reference.width || image.height != reference.height)
+        usageError("the image is " + std::to_string(image.width) + "x" +
+                   std::to_string(image.height) + " but the reference is " +
+                   std::to_string(reference.width) + "x" + std::to_string(reference.height));
+    double squaredError = 0, referenceSum = 0;
+    for (int y = 0; y < image.height; ++y)
+        for (int x = 0; x < image.width; ++x) {
+            const double value = image.get(x, y).luminance();
+            const double expected = reference.get(x, y).luminance();
+            squaredError += (value - expected) * (value - expected);
+            referenceSum += expected;
+        }
+    const double pixels = double(image.width) * image.height;
+    return std::sqrt(squaredError / pixels) / (referenceSum / pixels);
+}
+
+void setParameter(PropertyList& props, const std::string& text) {
+    const size_t colon = text.find(':'), equals = text.find('=');
+    if (colon == std::string::npos || equals == std::string::npos || equals < colon)
+        usageError("--set " + text + ": expected KIND:NAME=VALUE");
+    const std::string kind = text.substr(0, colon);
+    const std::string name = text.substr(colon + 1, equals - colon - 1);
+    const std::string value = text.substr(equals + 1);
+    if (kind == "int")
+        props.setInteger(name, std::stoi(value));
+    else if (kind == "float")
+        props.setFloat(name, std::stof(value));
+    else if (kind == "bool")
+        props.setBoolean(name, value == "true");
+    else if (kind == "string")
+        props.setString(name, value);
+    else
+        usageError("--set " + text + ": KIND must be int, float, bool or string");
+}
+
+int renderMode(int argc, char** argv) {
+    std::string scenePath = argv[2], integratorType, referencePath, outputPath;
+    std::vector<std::string> parameters;
+    std::vector<long> ladder, crop;
+    SceneOverrides overrides;
+    uint64_t seed = 0;
+    double cpuBudget = 0;
+    for (int i = 3; i < argc; ++i) {
+        const std::string option = argv[i];
+        if (i + 1 >= argc) usageError(option + " needs a value");
+        const std::string value = argv[++i];
+        if (option == "--integrator")
+            integratorType = value;
+        else if (option == "--set")
+            parameters.push_back(value);
+        else if (option == "--size") {
+            const std::vector<long> size = parseNumbers(value, 'x', "--size");
+            if (size.size() != 2) usageError("--size " + value + ": expected WIDTHxHEIGHT");
+            overrides.imageSize = Vector2i(int(size[0]), int(size[1]));
+        } else if (option == "--crop")
+            crop = parseNumbers(value, ',', "--crop");
+        else if (option == "--seed")
+            seed = std::stoull(value);
+        else if (option == "--passes")
+            ladder = parseNumbers(value, ',', "--passes");
+        else if (option == "--cpu-budget")
+            cpuBudget = std::stod(value);
+        else if (option == "--reference")
+            referencePath = value;
+        else if (option == "--write-exr")
+            outputPath = value;
+        else
+            usageError("unknown option " + option);
+    }
+    if (integratorType.empty() || ladder.empty())
+        usageError("--integrator and --passes are needed");
+
+    std::shared_ptr<Scene> scene = loadScene(scenePath, {}, overrides);
+    PropertyList props("atlas integrator \"" + integratorType + "\"");
+    for (const std::string& parameter : parameters) setParameter(props, parameter);
+    auto integrator = std::static_pointer_cast<Integrator>(
+        ObjectFactory::create(ObjectKind::Integrator, integratorType, props));
+    integrator->activate();
+    scene->setIntegrator(std::move(integrator));
+
+    const Vector2i size = scene->camera()->outputSize();
+    Tile window{0, 0, size.x(), size.y()};
+    if (!crop.empty()) {
+        if (crop.size() != 4) usageError("--crop: expected X0,Y0,X1,Y1");
+        window = Tile{int(crop[0]), int(crop[1]), int(crop[2]), int(crop[3])};
+        if (window.x0 < 0 || window.y0 < 0 || window.x1 > size.x() || window.y1 > size.y() ||
+            window.width() <= 0 || window.height() <= 0)
+            usageError("--crop lies outside the image");
+    }
+    std::optional<Image> reference;
+    if (!referencePath.empty()) reference = readEXR(referencePath);
+
+    std::printf("passes,wall_seconds,cpu_seconds,relative_rmse,predicted_relative_rmse\n");
+    double totalCpuSeconds = 0, lastCpuSeconds = 0;
+    long lastPasses = 0;
+    for (const long passes : ladder) {
+        // Stop before a render that would overrun the budget, guessing its CPU time from the
+        // last one in proportion to passes (each render starts from pass 0).
+        if (cpuBudget > 0 && lastPasses > 0 &&
+            totalCpuSeconds + lastCpuSeconds * double(passes) / double(lastPasses) > cpuBudget)
+            break;
+        RenderSettings settings;
+        settings.seed = seed;
+        settings.passes = uint32_t(passes);
+        settings.crop = window;
+        const double cpuStart = processCpuSeconds();
+        const auto wallStart = std::chrono::steady_clock::now();
+        const FilmBlock film = renderLocal(*scene, settings);
+        const double wall =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
+        const double cpu = processCpuSeconds() - cpuStart;
+        const Image whole = resolveImage(film, size.x(), size.y());
+        Image image(window.width(), window.height());
+        for (int y = window.y0; y < window.y1; ++y)
+            for (int x = window.x0; x < window.x1; ++x)
+                image.set(x - window.x0, y - window.y0, whole.get(x, y));
+        std::string error;
+        if (reference) error = std::to_string(relativeRmse(image, *reference));
+        // The film's own error estimate (its pass-parity halves, over the same window);
+        // run_atlas.py draws it beside the true error. Empty where none can be made (1 pass).
+        std::string predicted;
+        if (const auto estimate = estimateError(film, window, uint32_t(passes)))
+            predicted = std::to_string(estimate->relativeRmse);
+        std::printf("%ld,%.6f,%.6f,%s,%s\n", passes, wall, cpu, error.c_str(), predicted.c_str());
+        std::fflush(stdout);
+        if (!outputPath.empty()) writeEXR(outputPath, image);  // the last one done stays
+        totalCpuSeconds += cpu;
+        lastCpuSeconds = cpu;
+        lastPasses = passes;
+    }
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    const std::string mode = argc > 1 ? argv[1] : "";
+    try {
+        if (mode == "render" && argc >= 3) return renderMode(argc, argv);
+        if (mode == "compare" && argc == 4) {
+            std::printf("%.6g\n", relativeRmse(readEXR(argv[2]), readEXR(argv[3])));
+            return 0;
+        }
+        if (mode == "average" && argc == 5) {
+            const Image a = readEXR(argv[2]), b = readEXR(argv[3]);
+            if (a.width != b.width || a.height != b.height) usageError("the images differ in size");
+            Image mean(a.width, a.height);
+            for (size_t i = 0; i < mean.rgb.size(); ++i) mean.rgb[i] = 0.5f * (a.rgb[i] + b.rgb[i]);
+            writeEXR(argv[4], mean);
+            return 0;
+        }
+    } catch (const std::exception& error) {
+        std::fprintf(stderr, "bench_atlas_render: %s\n", error.what());
+        return 1;
+    }
+    usageError("expected a mode: render, compare or average");
+}

@@ -15,18 +15,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.ticker import FuncFormatter, LogLocator  # noqa: E402
+from run_atlas import label_log_ticks  # noqa: E402  (the atlas's tick labelling)
 
-
-
-def label_log_ticks(ax):
-    """Tick values at 1, 2 and 5 of every decade on both log axes, so that a curve spanning less
-    than a decade still has numbers beside it."""
-    for axis in (ax.xaxis, ax.yaxis):
-        axis.set_major_locator(LogLocator(base=10))
-        axis.set_minor_locator(LogLocator(base=10, subs=(2, 5)))
-        axis.set_major_formatter(FuncFormatter(lambda value, _: "%g" % value))
-        axis.set_minor_formatter(FuncFormatter(lambda value, _: "%g" % value))
 
 def slope(points):
     """Least-squares slope of log(rmse) against log(seconds)."""

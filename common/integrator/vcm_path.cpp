@@ -74,29 +74,6 @@ void misPath(const PathVertex* light, size_t s, const PathVertex* camera, size_t
             MisVertex{camera[j].pdfReverse, camera[j].pdfForward, camera[j].connectible()};
 }
 
-// A fixed-point splat of a light-tracing value, with the camera's filter, into the pixels of the
-// whole image (Nori's ImageBlock::put, as renderUnit's samples: pixel centres at integer + 0.5).
-// Only the rgb sums receive it: the pixel's weight counts camera samples, one per pass, and a
-// pass's light image is an estimate of the same filtered integral as one such sample.
-void splatLight(FilmBlock& image, const ReconstructionFilter& filter, const Point2f& position,
-                const Color3f& value) {
-    const float radius = filter.radius();
-    const float px = position.x() - 0.5f, py = position.y() - 0.5f;
-    const int xBegin = static_cast<int>(std::ceil(px - radius));
-    const int xEnd = static_cast<int>(std::floor(px + radius));
-    const int yBegin = static_cast<int>(std::ceil(py - radius));
-    const int yEnd = static_cast<int>(std::floor(py + radius));
-    for (int y = yBegin; y <= yEnd; ++y) {
-        const float wy = filter.eval(static_cast<float>(y) - py);
-        for (int x = xBegin; x <= xEnd; ++x) {
-            const float w = filter.eval(static_cast<float>(x) - px) * wy;
-            if (w == 0.0f || !image.contains(x, y)) continue;
-            PixelSum& sum = image.at(x, y);
-            for (int c = 0; c < 3; ++c) sum.rgb[c] += toFixedPoint(double(w) * double(value[c]));
-        }
-    }
-}
-
 }  // namespace
 
 BidirectionalIntegrator::BidirectionalIntegrator(const PropertyList& props, Kind kind)
@@ -450,7 +427,8 @@ std::shared_ptr<const PassData> BidirectionalIntegrator::preparePass(const Scene
                         std::clamp(int(position.y()), 0, size.y() - 1));
                     continue;
                 }
-                splatLight(data->lightImage, *camera.filter(), position, value);
+                splatFiltered(data->lightImage, *camera.filter(), position, value,
+                              SampleWeight::NotCounted);
             }
     }
 

@@ -1,7 +1,9 @@
 #include "common/render/film.h"
 
 #include "common/core/error.h"
+#include "common/filter/rfilter.h"
 
+#include <algorithm>
 #include <cstring>
 
 namespace alphorn {
@@ -101,6 +103,31 @@ Image resolveImage(const FilmBlock& film, int width, int height) {
         }
     }
     return image;
+}
+
+void splatFiltered(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
+                   const Color3f& value, SampleWeight weight) {
+    const float radius = filter.radius();
+    const float px = position.x() - 0.5f, py = position.y() - 0.5f;
+    const int xBegin = static_cast<int>(std::ceil(px - radius));
+    const int xEnd = static_cast<int>(std::floor(px + radius));
+    const int yBegin = static_cast<int>(std::ceil(py - radius));
+    const int yEnd = static_cast<int>(std::floor(py + radius));
+    // The filter's radius is at most 7 pixels (rfilter.cpp), so a row has at most 15 taps.
+    float wx[16];
+    const int nx = std::min(16, xEnd - xBegin + 1);
+    for (int i = 0; i < nx; ++i) wx[i] = filter.eval(static_cast<float>(xBegin + i) - px);
+    for (int y = yBegin; y <= yEnd; ++y) {
+        const float wy = filter.eval(static_cast<float>(y) - py);
+        for (int i = 0; i < nx; ++i) {
+            const int x = xBegin + i;
+            const float w = wx[i] * wy;
+            if (w == 0.0f || !block.contains(x, y)) continue;
+            PixelSum& sum = block.at(x, y);
+            for (int c = 0; c < 3; ++c) sum.rgb[c] += toFixedPoint(double(w) * double(value[c]));
+            if (weight == SampleWeight::Counted) sum.weight += toFixedPoint(w);
+        }
+    }
 }
 
 }  // namespace alphorn

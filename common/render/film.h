@@ -128,6 +128,19 @@ struct Image {
     }
 };
 
+class ReconstructionFilter;
+
+// What a filtered sample adds to the pixels' weights: a camera sample counts its filter weight;
+// a light-tracing splat adds radiance only (the pixel's weight counts the camera samples, one
+// per pass, and a pass's light image estimates the same filtered integral as one such sample).
+enum class SampleWeight { Counted, NotCounted };
+
+// Adds a sample at image position `position` to the pixels within the filter's reach (Nori's
+// ImageBlock::put: pixel centres sit at integer + 0.5), each product rounded once to fixed
+// point. The caller rejects invalid values (NaN, infinite, beyond kFixedPointLimit) first.
+void splatFiltered(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
+                   const Color3f& value, SampleWeight weight);
+
 // Resolves sums into an image: each pixel is sum(w L) / sum(w), computed in double from the
 // exact integers and rounded once to float. Pixels with no weight are black.
 Image resolveImage(const FilmBlock& film, int width, int height);

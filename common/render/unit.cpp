@@ -39,34 +39,14 @@ std::vector<std::shared_ptr<const PassData>> preparePasses(const Scene& scene, u
 
 namespace {
 
-// Splats one sample into the block with the camera's filter (Nori's ImageBlock::put: pixel
-// centres sit at integer + 0.5). Rejected samples are counted, never clamped.
+// A camera sample into the block; rejected samples are counted, never clamped.
 void splat(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
            const Color3f& value) {
     if (!value.isValid() || value.maxCoeff() > kFixedPointLimit) {
         ++block.invalidSamples;
         return;
     }
-    const float radius = filter.radius();
-    const float px = position.x() - 0.5f, py = position.y() - 0.5f;
-    const int xBegin = static_cast<int>(std::ceil(px - radius));
-    const int xEnd = static_cast<int>(std::floor(px + radius));
-    const int yBegin = static_cast<int>(std::ceil(py - radius));
-    const int yEnd = static_cast<int>(std::floor(py + radius));
-    float wx[16];
-    const int nx = std::min(16, xEnd - xBegin + 1);
-    for (int i = 0; i < nx; ++i) wx[i] = filter.eval(static_cast<float>(xBegin + i) - px);
-    for (int y = yBegin; y <= yEnd; ++y) {
-        const float wy = filter.eval(static_cast<float>(y) - py);
-        for (int i = 0; i < nx; ++i) {
-            const int x = xBegin + i;
-            const float w = wx[i] * wy;
-            if (w == 0.0f || !block.contains(x, y)) continue;
-            PixelSum& sum = block.at(x, y);
-            for (int c = 0; c < 3; ++c) sum.rgb[c] += toFixedPoint(double(w) * double(value[c]));
-            sum.weight += toFixedPoint(w);
-        }
-    }
+    splatFiltered(block, filter, position, value, SampleWeight::Counted);
 }
 
 }  // namespace

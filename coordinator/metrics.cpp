@@ -74,16 +74,34 @@ std::vector<prometheus::MetricFamily> CoordinatorStateMetrics::Collect() const {
     families.push_back(std::move(leasedUnits));
 
     auto workers = family("alphorn_workers",
-                          "Workers by state: alive (called within three lease periods) or dead "
-                          "(silent longer; forgotten after --keep-finished-hours)",
+                          "Workers by state: alive (called within two heartbeat intervals), "
+                          "silent (not since), dead (not for three lease periods; forgotten "
+                          "after --keep-finished-hours) or left (exited after a drain)",
                           prometheus::MetricType::Gauge);
+    auto draining = family("alphorn_workers_draining",
+                           "Workers taking no new unit: drained by a client, or stopping",
+                           prometheus::MetricType::Gauge);
     auto merged = family("alphorn_units_merged_by_worker_total",
                          "Units each worker delivered that were merged, by this coordinator "
                          "process",
                          prometheus::MetricType::Counter);
-    uint64_t alive = 0, dead = 0;
+    uint64_t alive = 0, silent = 0, dead = 0, left = 0, drainingCount = 0;
     for (const v1::WorkerInfo& worker : m_coordinator.listWorkers(true)) {
-        ++(worker.alive() ? alive : dead);
+        switch (worker.state()) {
+            case v1::WORKER_STATE_SILENT:
+                ++silent;
+                break;
+            case v1::WORKER_STATE_DEAD:
+                ++dead;
+                break;
+            case v1::WORKER_STATE_LEFT:
+                ++left;
+                break;
+            default:
+                ++alive;
+                break;
+        }
+        if (worker.draining() || worker.exiting()) ++drainingCount;
         prometheus::ClientMetric metric;
         metric.label = {{"worker", worker.name()},
                         {"worker_id", std::to_string(worker.worker_id())}};
@@ -91,8 +109,12 @@ std::vector<prometheus::MetricFamily> CoordinatorStateMetrics::Collect() const {
         merged.metric.push_back(std::move(metric));
     }
     addGauge(workers, double(alive), {{"state", "alive"}});
+    addGauge(workers, double(silent), {{"state", "silent"}});
     addGauge(workers, double(dead), {{"state", "dead"}});
+    addGauge(workers, double(left), {{"state", "left"}});
+    addGauge(draining, double(drainingCount));
     families.push_back(std::move(workers));
+    families.push_back(std::move(draining));
     families.push_back(std::move(merged));
 
     try {

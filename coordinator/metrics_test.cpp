@@ -124,6 +124,10 @@ TEST_F(CoordinatorMetricsTest, FollowJobsUnitsWorkersAndBlobs) {
     EXPECT_EQ(sample(leased, "alphorn_pending_units"), 10);
     EXPECT_EQ(sample(leased, "alphorn_leased_units"), 2);
     EXPECT_EQ(sample(leased, "alphorn_workers{state=\"alive\"}"), 1);
+    EXPECT_EQ(sample(leased, "alphorn_workers_draining"), 0);
+    coordinator.setWorkerDraining(worker, true);
+    EXPECT_EQ(sample(scrape(coordinator), "alphorn_workers_draining"), 1);
+    coordinator.setWorkerDraining(worker, false);
     EXPECT_EQ(sample(leased, "alphorn_blob_store_bytes"), double(bundleBytes));
     EXPECT_EQ(sample(leased, "alphorn_blob_store_blobs"), double(bundle.files.size()));
     EXPECT_EQ(

@@ -11,6 +11,7 @@
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
 #include "coordinator/checkpoint.h"
+#include "coordinator/coordinator_job_test.h"
 
 #include <gtest/gtest.h>
 #include <sys/resource.h>
@@ -87,64 +88,8 @@ TEST(Checkpoint, RoundTripAndCorruption) {
     fs::remove_all(dir);
 }
 
-class CoordinatorJob : public ::testing::Test {
+class CoordinatorJob : public CoordinatorJobTest {
   protected:
-    void SetUp() override {
-        m_dir = freshDirectory("coordinator");
-        fs::create_directories(m_dir / "scene");
-        fs::copy_file(fs::path(ALPHORN_SOURCE_DIR) / "scenes/meshes/sphere.obj",
-                      m_dir / "scene/sphere.obj");
-        std::ofstream(m_dir / "scene/s.xml") << R"(<scene>
-  <integrator type="normals"/>
-  <camera type="perspective">
-    <transform name="toWorld"><lookat origin="3, 2, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <integer name="width" value="40"/><integer name="height" value="30"/>
-  </camera>
-  <mesh type="obj"><string name="filename" value="sphere.obj"/></mesh>
-</scene>)";
-        m_options.stateDirectory = (m_dir / "state").string();
-        m_options.leaseSeconds = 60;
-    }
-    void TearDown() override { fs::remove_all(m_dir); }
-
-    v1::SubmitJobRequest upload(Coordinator& coordinator) {
-        farm::Bundle bundle = farm::gatherBundle((m_dir / "scene/s.xml").string());
-        for (const auto& file : bundle.files) {
-            BlobStore::Upload blob(coordinator.blobs(), file.sha256);
-            blob.append(farm::readFile(file.sourcePath));
-            blob.commit();
-        }
-        v1::SubmitJobRequest request;
-        *request.mutable_bundle() = farm::toProto(bundle);
-        request.mutable_settings()->set_passes(3);
-        request.mutable_settings()->set_seed(5);
-        request.mutable_settings()->set_tile_size(16);
-        request.mutable_settings()->set_passes_per_unit(1);
-        return request;
-    }
-
-    // Renders a leased unit the way a worker does.
-    v1::ResultChunk render(const v1::AcquireWorkResponse& lease, uint64_t workerId,
-                           std::string& compressed) {
-        auto scene = loadScene((m_dir / "scene/s.xml").string());
-        const RenderUnit unit = farm::fromProto(lease.unit());
-        FilmBlock block = makeUnitBlock(*scene, unit.tile);
-        renderUnit(*scene, 5, unit, preparePasses(*scene, 5, unit.passBegin, unit.passEnd), block);
-        compressed = farm::compressFilm(block);
-        v1::ResultChunk header;
-        header.set_worker_id(workerId);
-        header.set_lease_id(lease.lease_id());
-        header.set_job_id(lease.unit().job_id());
-        header.set_unit_index(lease.unit().unit_index());
-        header.set_block_x0(block.x0());
-        header.set_block_y0(block.y0());
-        header.set_block_width(block.width());
-        header.set_block_height(block.height());
-        header.set_compressed_size(compressed.size());
-        header.set_compressed_sha256(farm::sha256Hex(compressed));
-        return header;
-    }
-
     // Leases every pending unit to `worker`, renders and reports it as a worker does, and
     // calls `afterMerge` with each lease once its result is merged.
     void renderAllUnits(
@@ -176,9 +121,6 @@ class CoordinatorJob : public ::testing::Test {
             std::this_thread::sleep_for(std::chrono::milliseconds(10));
         return done();
     }
-
-    fs::path m_dir;
-    CoordinatorOptions m_options;
 };
 
 // Runs `change` and returns the FailedPrecondition message it throws ("" when it throws none).

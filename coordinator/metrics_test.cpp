@@ -2,27 +2,16 @@
 // units pending, leased and merged, samples, jobs and workers by state, checkpoints.
 #include "coordinator/metrics.h"
 
-#include "common/farm/bundle.h"
-#include "common/farm/convert.h"
-#include "common/farm/files.h"
-#include "common/farm/film_codec.h"
 #include "common/farm/metrics.h"
-#include "common/farm/sha256.h"
-#include "common/scene/parser.h"
-#include "common/scene/scene.h"
-#include "coordinator/coordinator.h"
+#include "coordinator/coordinator_job_test.h"
 
 #include <gtest/gtest.h>
 #include <prometheus/collectable.h>
 
-#include <filesystem>
-#include <fstream>
 #include <sstream>
 
 namespace alphorn::coordinator {
 namespace {
-
-namespace fs = std::filesystem;
 
 // The value of the sample named exactly `series` (name and labels); -1 when absent.
 double sample(const std::string& text, const std::string& series) {
@@ -32,27 +21,8 @@ double sample(const std::string& text, const std::string& series) {
     return -1;
 }
 
-class CoordinatorMetricsTest : public ::testing::Test {
+class CoordinatorMetricsTest : public CoordinatorJobTest {
   protected:
-    void SetUp() override {
-        m_dir = fs::temp_directory_path() / ("alphorn_metrics_" + std::to_string(::getpid()));
-        fs::remove_all(m_dir);
-        fs::create_directories(m_dir / "scene");
-        fs::copy_file(fs::path(ALPHORN_SOURCE_DIR) / "scenes/meshes/sphere.obj",
-                      m_dir / "scene/sphere.obj");
-        std::ofstream(m_dir / "scene/s.xml") << R"(<scene>
-  <integrator type="normals"/>
-  <camera type="perspective">
-    <transform name="toWorld"><lookat origin="3, 2, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <integer name="width" value="40"/><integer name="height" value="30"/>
-  </camera>
-  <mesh type="obj"><string name="filename" value="sphere.obj"/></mesh>
-</scene>)";
-        m_options.stateDirectory = (m_dir / "state").string();
-        m_options.leaseSeconds = 60;
-    }
-    void TearDown() override { fs::remove_all(m_dir); }
-
     std::string scrape(Coordinator& coordinator) {
         return farm::metricsText({farm::CoordinatorMetrics::registry(),
                                   std::make_shared<CoordinatorStateMetrics>(coordinator)});
@@ -61,27 +31,10 @@ class CoordinatorMetricsTest : public ::testing::Test {
     // Renders a leased unit as a worker does and reports it.
     v1::ResultDisposition renderAndReport(Coordinator& coordinator,
                                           const v1::AcquireWorkResponse& lease, uint64_t worker) {
-        auto scene = loadScene((m_dir / "scene/s.xml").string());
-        const RenderUnit unit = farm::fromProto(lease.unit());
-        FilmBlock block = makeUnitBlock(*scene, unit.tile);
-        renderUnit(*scene, 5, unit, preparePasses(*scene, 5, unit.passBegin, unit.passEnd), block);
-        const std::string compressed = farm::compressFilm(block);
-        v1::ResultChunk header;
-        header.set_worker_id(worker);
-        header.set_lease_id(lease.lease_id());
-        header.set_job_id(lease.unit().job_id());
-        header.set_unit_index(lease.unit().unit_index());
-        header.set_block_x0(block.x0());
-        header.set_block_y0(block.y0());
-        header.set_block_width(block.width());
-        header.set_block_height(block.height());
-        header.set_compressed_size(compressed.size());
-        header.set_compressed_sha256(farm::sha256Hex(compressed));
+        std::string compressed;
+        const v1::ResultChunk header = render(lease, worker, compressed);
         return coordinator.report(header, compressed);
     }
-
-    fs::path m_dir;
-    CoordinatorOptions m_options;
 };
 
 TEST_F(CoordinatorMetricsTest, FollowJobsUnitsWorkersAndBlobs) {
@@ -93,21 +46,9 @@ TEST_F(CoordinatorMetricsTest, FollowJobsUnitsWorkersAndBlobs) {
     EXPECT_EQ(sample(empty, "alphorn_blob_store_bytes"), 0);
     EXPECT_EQ(sample(empty, "alphorn_pending_units"), 0);
 
-    const farm::Bundle bundle = farm::gatherBundle((m_dir / "scene/s.xml").string());
+    const v1::SubmitJobRequest request = upload(coordinator, 2);
     uint64_t bundleBytes = 0;
-    for (const auto& file : bundle.files) {
-        BlobStore::Upload blob(coordinator.blobs(), file.sha256);
-        const std::string bytes = farm::readFile(file.sourcePath);
-        blob.append(bytes);
-        blob.commit();
-        bundleBytes += bytes.size();
-    }
-    v1::SubmitJobRequest request;
-    *request.mutable_bundle() = farm::toProto(bundle);
-    request.mutable_settings()->set_passes(2);
-    request.mutable_settings()->set_seed(5);
-    request.mutable_settings()->set_tile_size(16);
-    request.mutable_settings()->set_passes_per_unit(1);
+    for (const auto& file : request.bundle().files()) bundleBytes += file.size();
     const v1::JobStatus job = coordinator.submit(request);
     ASSERT_EQ(job.units_total(), 12u);  // 2 passes x (3 x 2 tiles of 16 px)
     v1::RegisterRequest registration;
@@ -129,7 +70,7 @@ TEST_F(CoordinatorMetricsTest, FollowJobsUnitsWorkersAndBlobs) {
     EXPECT_EQ(sample(scrape(coordinator), "alphorn_workers_draining"), 1);
     coordinator.setWorkerDraining(worker, false);
     EXPECT_EQ(sample(leased, "alphorn_blob_store_bytes"), double(bundleBytes));
-    EXPECT_EQ(sample(leased, "alphorn_blob_store_blobs"), double(bundle.files.size()));
+    EXPECT_EQ(sample(leased, "alphorn_blob_store_blobs"), double(request.bundle().files_size()));
     EXPECT_EQ(
         sample(leased, "alphorn_units_leased_total") - sample(empty, "alphorn_units_leased_total"),
         2);

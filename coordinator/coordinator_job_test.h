@@ -1,0 +1,92 @@
+// A test fixture for the coordinator's tests that drive a whole job through Coordinator
+// without sockets: a small scene in a temporary directory, the request that submits it with its
+// files uploaded, and a leased unit rendered the way a worker renders it.
+#pragma once
+
+#include "common/farm/bundle.h"
+#include "common/farm/convert.h"
+#include "common/farm/files.h"
+#include "common/farm/film_codec.h"
+#include "common/farm/sha256.h"
+#include "common/render/unit.h"
+#include "common/scene/parser.h"
+#include "common/scene/scene.h"
+#include "coordinator/coordinator.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace alphorn::coordinator {
+
+namespace fs = std::filesystem;
+
+class CoordinatorJobTest : public ::testing::Test {
+  protected:
+    void SetUp() override {
+        m_dir = fs::temp_directory_path() / ("alphorn_coordinator_" + std::to_string(::getpid()));
+        fs::remove_all(m_dir);
+        fs::create_directories(m_dir / "scene");
+        fs::copy_file(fs::path(ALPHORN_SOURCE_DIR) / "scenes/meshes/sphere.obj",
+                      m_dir / "scene/sphere.obj");
+        std::ofstream(m_dir / "scene/s.xml") << R"(<scene>
+  <integrator type="normals"/>
+  <camera type="perspective">
+    <transform name="toWorld"><lookat origin="3, 2, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <integer name="width" value="40"/><integer name="height" value="30"/>
+  </camera>
+  <mesh type="obj"><string name="filename" value="sphere.obj"/></mesh>
+</scene>)";
+        m_options.stateDirectory = (m_dir / "state").string();
+        m_options.leaseSeconds = 60;
+    }
+    void TearDown() override { fs::remove_all(m_dir); }
+
+    // Stores the scene's files in the coordinator's blob store, as `alphorn submit` uploads
+    // them, and returns the request that submits it (`passes` passes of one pass per unit).
+    v1::SubmitJobRequest upload(Coordinator& coordinator, uint32_t passes = 3) {
+        farm::Bundle bundle = farm::gatherBundle((m_dir / "scene/s.xml").string());
+        for (const auto& file : bundle.files) {
+            BlobStore::Upload blob(coordinator.blobs(), file.sha256);
+            blob.append(farm::readFile(file.sourcePath));
+            blob.commit();
+        }
+        v1::SubmitJobRequest request;
+        *request.mutable_bundle() = farm::toProto(bundle);
+        request.mutable_settings()->set_passes(passes);
+        request.mutable_settings()->set_seed(5);
+        request.mutable_settings()->set_tile_size(16);
+        request.mutable_settings()->set_passes_per_unit(1);
+        return request;
+    }
+
+    // Renders a leased unit the way a worker does.
+    v1::ResultChunk render(const v1::AcquireWorkResponse& lease, uint64_t workerId,
+                           std::string& compressed) {
+        auto scene = loadScene((m_dir / "scene/s.xml").string());
+        const RenderUnit unit = farm::fromProto(lease.unit());
+        FilmBlock block = makeUnitBlock(*scene, unit.tile);
+        renderUnit(*scene, 5, unit, preparePasses(*scene, 5, unit.passBegin, unit.passEnd), block);
+        compressed = farm::compressFilm(block);
+        v1::ResultChunk header;
+        header.set_worker_id(workerId);
+        header.set_lease_id(lease.lease_id());
+        header.set_job_id(lease.unit().job_id());
+        header.set_unit_index(lease.unit().unit_index());
+        header.set_block_x0(block.x0());
+        header.set_block_y0(block.y0());
+        header.set_block_width(block.width());
+        header.set_block_height(block.height());
+        header.set_compressed_size(compressed.size());
+        header.set_compressed_sha256(farm::sha256Hex(compressed));
+        return header;
+    }
+
+    fs::path m_dir;
+    CoordinatorOptions m_options;
+};
+
+}  // namespace alphorn::coordinator

@@ -14,7 +14,7 @@ sphere front right, a 0.5 x 0.5 one-sided quad light under the ceiling, box pixe
 Every surface is written as explicit world-space triangles (the spheres are the repository's
 scenes/meshes/sphere.obj, scaled and moved here), so neither renderer uses an analytic shape the
 other lacks. The integrator and sampler are chosen when rendering: Alphorn's by `-D` values
-($integrator, $sampler; $photons, $radius for box_photons), pbrt's by the header render.py puts
+($integrator, $sampler; $photons, $radius for box_photons), pbrt's by the header compare.py puts
 before each scene body (pbrt-v3 wants them before WorldBegin).
 """
 import argparse
@@ -151,9 +151,9 @@ def write_alphorn(out, name, size, fog, integrator='  <integrator type="$integra
         f.write("\n".join(lines) + "\n")
 
 
-def write_pbrt(out, name, size, fog):
-    """The scene without its integrator and sampler: render.py prepends a header choosing them
-    (pbrt-v3 wants them before WorldBegin)."""
+def write_pbrt(out, name, fog):
+    """The scene without its integrator, sampler and film: compare.py prepends a header choosing
+    them (pbrt-v3 wants them before WorldBegin)."""
     lines = ["# written by bench/peers/make_scenes.py",
              # Nori and Mitsuba look down the camera's +z with +x to the left of the image; pbrt's
              # +x is to the right: mirror x so both show the red wall on the left.
@@ -188,9 +188,6 @@ def write_pbrt(out, name, size, fog):
     lines.append("WorldEnd")
     with open(os.path.join(out, name + ".pbrt-body"), "w") as f:
         f.write("\n".join(lines) + "\n")
-    # The film's resolution is also a header value (render.py adds the output file name).
-    with open(os.path.join(out, name + ".pbrt-size"), "w") as f:
-        f.write("%d\n" % size)
 
 
 def main():
@@ -202,7 +199,7 @@ def main():
     os.makedirs(os.path.join(args.out, "meshes"), exist_ok=True)
     for name, fog in (("box", False), ("fog", True)):
         write_alphorn(args.out, name, args.size, fog)
-        write_pbrt(args.out, name, args.size, fog)
+        write_pbrt(args.out, name, fog)
     write_alphorn(args.out, "box_photons", args.size, False, PHOTON_INTEGRATOR)
     print("scenes written to", args.out)
 

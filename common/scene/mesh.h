@@ -87,7 +87,12 @@ class Mesh : public Object {
     std::string m_name;
 
   private:
-    void alignTangentWithU(uint32_t i0, uint32_t i1, uint32_t i2, Frame& frame) const;
+    // The interpolated vertex normal at barycentrics (u, v, w), unit length; false if the mesh
+    // has no normals or they cancel there.
+    bool interpolatedNormal(uint32_t i0, uint32_t i1, uint32_t i2, float u, float v, float w,
+                            Normal3f& normal) const;
+    bool frameAlignedWithU(uint32_t i0, uint32_t i1, uint32_t i2, const Normal3f& n,
+                           Frame& frame) const;
 
     Eigen::Matrix<float, 3, Eigen::Dynamic> m_positions;
     Eigen::Matrix<float, 3, Eigen::Dynamic> m_normals;  // empty when the file has none

@@ -107,14 +107,14 @@ void Mesh::fillIntersection(uint32_t triangle, float u, float v, Intersection& i
     else
         its.uv = Point2f(u, v);
 
-    its.geoFrame = Frame(unitGeometricNormal(p0, p1, p2));
+    // The true normal needs no frame of its own: it only decides sides and cosines.
+    its.geoNormal = unitGeometricNormal(p0, p1, p2);
     Normal3f shading;
-    const bool interpolated = interpolatedNormal(i0, i1, i2, u, v, w, shading);
-    if (!interpolated) shading = its.geoFrame.n;
+    if (!interpolatedNormal(i0, i1, i2, u, v, w, shading)) shading = its.geoNormal;
     // With uvs, the tangent follows u, and the frame built from the normal alone (it costs a
     // division) is only the fallback where the uvs are degenerate.
     if (m_uvs.cols() > 0 && frameAlignedWithU(i0, i1, i2, shading, its.shFrame)) return;
-    its.shFrame = interpolated ? Frame(shading) : its.geoFrame;
+    its.shFrame = Frame(shading);
 }
 
 // Builds the frame about normal n whose tangent s points along dp/du, with its bitangent t
@@ -144,7 +144,7 @@ bool Mesh::frameAlignedWithU(uint32_t i0, uint32_t i1, uint32_t i2, const Normal
 const Medium* Mesh::mediumTowards(const Intersection& its, const Vector3f& dir,
                                   const Medium* current) const {
     if (!m_hasMediumInterface) return current;
-    Vector3f outward = its.geoFrame.n;
+    Vector3f outward = its.geoNormal;
     if (outward.dot(its.shFrame.n) < 0.0f) outward = -outward;
     return dir.dot(outward) < 0.0f ? m_inside.get() : m_outside.get();
 }

@@ -18,8 +18,8 @@ struct Intersection {
     Point3f p = Point3f::Zero();
     float t = Infinity;
     Point2f uv = Point2f::Zero();
-    Frame shFrame;   // shading frame (interpolated normal)
-    Frame geoFrame;  // geometric frame (true triangle normal)
+    Frame shFrame;                           // shading frame (interpolated normal)
+    Normal3f geoNormal = Normal3f::UnitZ();  // the true triangle normal, unit length
     const Mesh* mesh = nullptr;
     uint32_t triangle = 0;
 

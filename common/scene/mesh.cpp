@@ -85,6 +85,12 @@ Normal3f unitGeometricNormal(const Point3f& p0, const Point3f& p1, const Point3f
 
 }  // namespace
 
+Normal3f Mesh::geometricNormal(uint32_t triangle) const {
+    return unitGeometricNormal(m_positions.col(m_faces(0, triangle)),
+                               m_positions.col(m_faces(1, triangle)),
+                               m_positions.col(m_faces(2, triangle)));
+}
+
 bool Mesh::interpolatedNormal(uint32_t i0, uint32_t i1, uint32_t i2, float u, float v, float w,
                               Normal3f& normal) const {
     if (m_normals.cols() == 0) return false;
@@ -107,10 +113,9 @@ void Mesh::fillIntersection(uint32_t triangle, float u, float v, Intersection& i
     else
         its.uv = Point2f(u, v);
 
-    // The true normal needs no frame of its own: it only decides sides and cosines.
-    its.geoNormal = unitGeometricNormal(p0, p1, p2);
     Normal3f shading;
-    if (!interpolatedNormal(i0, i1, i2, u, v, w, shading)) shading = its.geoNormal;
+    if (!interpolatedNormal(i0, i1, i2, u, v, w, shading))
+        shading = unitGeometricNormal(p0, p1, p2);
     // With uvs, the tangent follows u, and the frame built from the normal alone (it costs a
     // division) is only the fallback where the uvs are degenerate.
     if (m_uvs.cols() > 0 && frameAlignedWithU(i0, i1, i2, shading, its.shFrame)) return;
@@ -144,7 +149,7 @@ bool Mesh::frameAlignedWithU(uint32_t i0, uint32_t i1, uint32_t i2, const Normal
 const Medium* Mesh::mediumTowards(const Intersection& its, const Vector3f& dir,
                                   const Medium* current) const {
     if (!m_hasMediumInterface) return current;
-    Vector3f outward = its.geoNormal;
+    Vector3f outward = its.geometricNormal();
     if (outward.dot(its.shFrame.n) < 0.0f) outward = -outward;
     return dir.dot(outward) < 0.0f ? m_inside.get() : m_outside.get();
 }

@@ -18,13 +18,15 @@ struct Intersection {
     Point3f p = Point3f::Zero();
     float t = Infinity;
     Point2f uv = Point2f::Zero();
-    Frame shFrame;                           // shading frame (interpolated normal)
-    Normal3f geoNormal = Normal3f::UnitZ();  // the true triangle normal, unit length
+    Frame shFrame;  // shading frame (interpolated normal)
     const Mesh* mesh = nullptr;
     uint32_t triangle = 0;
 
     Vector3f toLocal(const Vector3f& d) const { return shFrame.toLocal(d); }
     Vector3f toWorld(const Vector3f& d) const { return shFrame.toWorld(d); }
+    // The true triangle normal, unit length. Computed on demand: most hits never ask for it,
+    // and its normalisation costs three divisions.
+    Normal3f geometricNormal() const;
 };
 
 // A point sampled uniformly on a mesh's surface.
@@ -55,6 +57,8 @@ class Mesh : public Object {
     float surfaceArea() const { return m_surfaceArea; }
     Eigen::AlignedBox3f bounds() const;
 
+    // The true normal of a triangle, unit length (UnitZ for a degenerate one).
+    Normal3f geometricNormal(uint32_t triangle) const;
     // Fills the hit record from a triangle index and barycentrics (u, v) as Embree reports them.
     void fillIntersection(uint32_t triangle, float u, float v, Intersection& its) const;
     // Samples a point uniformly by area.
@@ -106,6 +110,10 @@ class Mesh : public Object {
     std::shared_ptr<Medium> m_inside, m_outside;
     bool m_hasMediumInterface = false;
 };
+
+inline Normal3f Intersection::geometricNormal() const {
+    return mesh->geometricNormal(triangle);
+}
 
 // The OBJ loader's text filter: empties tinyobjloader's "vw" (skin weight) lines, which Alphorn
 // ignores and tinyobjloader parses unsafely (obj_mesh.cpp).

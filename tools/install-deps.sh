@@ -16,6 +16,8 @@ PACKAGES=(
 # matplotlib.
 if [ "${1:-}" != "--build" ]; then
   PACKAGES+=(prometheus python3-matplotlib python3-numpy)
+  # docs/operations.md's backup steps (its test runs them).
+  PACKAGES+=(sqlite3 rsync)
 fi
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -87,7 +87,7 @@ def extract_blocks(doc_path):
                     fail(f"{doc_path}:{number - 1}: a skip marker before a {language} block")
                 reason = skip.group(1)
             block = (number, language, reason, [])
-        elif "ops-test" in line and not marker_pattern.match(line):
+        elif line.startswith("<!--") and "ops-test" in line and not marker_pattern.match(line):
             fail(f"{doc_path}:{number}: a malformed ops-test marker: {line!r}")
         elif marker_pattern.match(previous) and line.strip():
             fail(f"{doc_path}:{number - 1}: an ops-test marker not right before a code block")
@@ -134,8 +134,9 @@ def runs_until_stopped(text):
 
 
 def build_script(doc_path, blocks, values):
+    shown_doc = shlex.quote(doc_path)
     out = ["set -euo pipefail", "DAEMONS=()",
-           'trap \'echo "FAIL: docs/operations.md:$DOC_LINE: exit status $?" >&2\' ERR']
+           f'trap \'echo "FAIL: "{shown_doc}":$DOC_LINE: exit status $?" >&2\' ERR']
     for name in PREFIX_VARIABLES:
         out.append(f"{name}={shlex.quote(values[name])}")
     ran = skipped = 0
@@ -167,6 +168,7 @@ def build_script(doc_path, blocks, values):
     out.append("DOC_LINE=end")
     # Stop the daemons last started first (workers before their coordinator), as the guide says:
     # SIGTERM, exit code 0.
+    out.append(f"DOC={shown_doc}")
     out.append(r"""
 touch "$WORK/stopping"
 for ((i = ${#DAEMONS[@]} - 1; i >= 0; --i)); do
@@ -176,7 +178,7 @@ for ((i = ${#DAEMONS[@]} - 1; i >= 0; --i)); do
     wait "$pid" || status=$?
     line=$(grep "^$pid " "$WORK/daemons" | cut -d' ' -f2)
     echo "stopped the daemon of line $line (pid $pid) with SIGTERM: exit status $status"
-    [[ $status -eq 0 ]] || { echo "FAIL: docs/operations.md:$line: exit status $status after SIGTERM, not 0" >&2; exit 1; }
+    [[ $status -eq 0 ]] || { echo "FAIL: $DOC:$line: exit status $status after SIGTERM, not 0" >&2; exit 1; }
 done
 echo "ALL STEPS RAN"
 """)
@@ -273,7 +275,7 @@ def main():
                         # before that, an exit is a failure (a bad flag, a port in use).
                         if process_is_gone(int(pid)) and not os.path.exists(
                                 os.path.join(work, "stopping")):
-                            problem = (f"docs/operations.md:{line}: the command that should run "
+                            problem = (f"{doc_path}:{line}: the command that should run "
                                        "until stopped exited early")
                 if problem:
                     break

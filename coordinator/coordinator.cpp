@@ -417,7 +417,7 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
         try {
             m_store.removeJob(job->id);
         } catch (const Error&) {
-            // The row stays; resume() fails that job with a clear error instead.
+            // The row stays: a restart resumes that job (its directory made anew).
         }
         refuse(Kind::ResourceExhausted, absl::StrFormat("cannot store the job: %s", e.what()));
     }

@@ -202,7 +202,7 @@ function showPreview(job) {
 function drawChart(history, job) {
   const svg = document.getElementById('chart');
   svg.replaceChildren();
-  const width = 420, height = 260, left = 56, right = 14, top = 12, bottom = 44;
+  const width = 420, height = 260, left = 62, right = 14, top = 12, bottom = 44;
   const plotWidth = width - left - right, plotHeight = height - top - bottom;
   if (history.length === 0) {
     svg.append(svgElement('text', {x: width / 2, y: height / 2, 'text-anchor': 'middle'},
@@ -221,7 +221,7 @@ function drawChart(history, job) {
   const y = (value) => top + plotHeight * (1 - (Math.log10(value) - yLow) / (yHigh - yLow));
 
   const clip = svgElement('clipPath', {id: 'plot-area'});
-  clip.append(svgElement('rect', {x: left, y: top, width: plotWidth, height: plotHeight}));
+  clip.append(svgElement('rect', {x: left - 5, y: top - 5, width: plotWidth + 10, height: plotHeight + 10}));
   svg.append(clip);
   // Ticks: powers of two along the passes, 1-2-5 per decade along the error.
   const xStep = Math.log2(xMax / xMin) > 10 ? 2 : 1;
@@ -238,7 +238,7 @@ function drawChart(history, job) {
       const at = y(value);
       svg.append(svgElement('line', {class: 'grid', x1: left, x2: left + plotWidth, y1: at, y2: at}));
       svg.append(svgElement('line', {class: 'axis', x1: left - 4, x2: left, y1: at, y2: at}));
-      svg.append(svgElement('text', {x: left - 7, y: at + 4, 'text-anchor': 'end'}, percent(value)));
+      svg.append(svgElement('text', {x: left - 7, y: at + 4, 'text-anchor': 'end'}, `${+(value * 100).toPrecision(3)} %`));
     }
   }
   svg.append(svgElement('line', {class: 'axis', x1: left, x2: left, y1: top, y2: top + plotHeight}));
@@ -246,6 +246,7 @@ function drawChart(history, job) {
   svg.append(svgElement('text', {x: left + plotWidth / 2, y: height - 6, 'text-anchor': 'middle'}, 'passes (log scale)'));
   svg.append(svgElement('text', {x: 12, y: top + plotHeight / 2, 'text-anchor': 'middle',
                                  transform: `rotate(-90 12 ${top + plotHeight / 2})`}, 'relative RMSE (log scale)'));
+  // The plotted lines stay inside the axes; the points at the edges are drawn whole.
 
   const plotted = svgElement('g', {'clip-path': 'url(#plot-area)'});
   const last = history[history.length - 1];

@@ -221,7 +221,7 @@ function drawChart(history, job) {
   const y = (value) => top + plotHeight * (1 - (Math.log10(value) - yLow) / (yHigh - yLow));
 
   const clip = svgElement('clipPath', {id: 'plot-area'});
-  clip.append(svgElement('rect', {x: left - 5, y: top - 5, width: plotWidth + 10, height: plotHeight + 10}));
+  clip.append(svgElement('rect', {x: left, y: top, width: plotWidth, height: plotHeight}));
   svg.append(clip);
   // Ticks: powers of two along the passes, 1-2-5 per decade along the error.
   const xStep = Math.log2(xMax / xMin) > 10 ? 2 : 1;
@@ -246,8 +246,9 @@ function drawChart(history, job) {
   svg.append(svgElement('text', {x: left + plotWidth / 2, y: height - 6, 'text-anchor': 'middle'}, 'passes (log scale)'));
   svg.append(svgElement('text', {x: 12, y: top + plotHeight / 2, 'text-anchor': 'middle',
                                  transform: `rotate(-90 12 ${top + plotHeight / 2})`}, 'relative RMSE (log scale)'));
-  // The plotted lines stay inside the axes; the points at the edges are drawn whole.
 
+  // The lines stay inside the axes; the points (inside by the choice of the ranges) are drawn
+  // whole, also at the edges.
   const plotted = svgElement('g', {'clip-path': 'url(#plot-area)'});
   const last = history[history.length - 1];
   if (last.relative_rmse > 0) {
@@ -262,12 +263,12 @@ function drawChart(history, job) {
   const points = history.filter((p) => p.relative_rmse > 0);
   plotted.append(svgElement('polyline', {class: 'series',
                                          points: points.map((p) => `${x(p.passes)},${y(p.relative_rmse)}`).join(' ')}));
+  svg.append(plotted);
   for (const p of points) {
     const dot = svgElement('circle', {class: 'point', cx: x(p.passes), cy: y(p.relative_rmse), r: 3.5});
     dot.append(svgElement('title', {}, `${p.passes} passes: ${percent(p.relative_rmse)}`));
-    plotted.append(dot);
+    svg.append(dot);
   }
-  svg.append(plotted);
 }
 
 function showLog(log) {

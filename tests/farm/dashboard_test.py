@@ -7,7 +7,7 @@ It checks that a request without a token is refused (401, also when /metrics is 
 that a wrong token does not log in, that the client token does, that the jobs page lists the
 job, that the job page's preview image changes while the job runs (the PNG bytes at two moments
 differ, and the page loads a new one), that pause, priority and resume act (the page and the API
-show it), that the convergence chart draws the estimates, that the workers page drains and
+show it), that cancel, retry and delete act on a second job, that the convergence chart draws the estimates, that the workers page drains and
 undrains a worker, that an action sent with the session cookie but without the dashboard's
 header is refused (403: no cross-site forgery), and that the viewer token sees the pages but
 cannot act (403, buttons disabled).
@@ -29,7 +29,7 @@ import urllib.request
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
-from selenium.common.exceptions import StaleElementReferenceException
+from selenium.common.exceptions import NoSuchElementException, StaleElementReferenceException
 from selenium.webdriver.common.by import By
 
 WAIT_SECONDS = 20
@@ -40,14 +40,14 @@ def fail(message):
 
 
 def wait_for(what, condition, timeout=WAIT_SECONDS, interval=0.05):
-    """Polls `condition` until it returns something true; fails naming `what` on timeout. The
-    pages rebuild their tables every second, so an element found a moment ago may be gone: that
-    counts as not yet."""
+    """Polls `condition` until it returns something true; fails naming `what` on timeout. An
+    element not there yet (a page loading), or gone (the pages rebuild their tables every
+    second), counts as not yet."""
     deadline = time.monotonic() + timeout
     while True:
         try:
             value = condition()
-        except StaleElementReferenceException:
+        except (NoSuchElementException, StaleElementReferenceException):
             value = None
         if value:
             return value
@@ -300,6 +300,33 @@ def run(args):
             time.sleep(0.3)
             driver.save_screenshot(args.screenshot)
             ok(f"screenshot saved: {args.screenshot}")
+
+        # ---- a second job: Cancel, Retry and Delete from its page (each asks first).
+        second_id = farm.submit(args.scene, args.passes, "dashboard-test-2")
+        driver.get(farm.url + f"/dashboard/job?id={second_id}")
+
+        def shown_state():
+            return driver.find_element(By.CSS_SELECTOR, "#facts dd").text
+
+        def confirmed_click(button):
+            wait_for(f"{button} is enabled",
+                     lambda: driver.find_element(By.ID, button).is_enabled())
+            driver.find_element(By.ID, button).click()
+            driver.switch_to.alert.accept()
+        wait_for("the second job's page shows it running", lambda: shown_state() == "running")
+        confirmed_click("cancel")
+        wait_for("the page shows the job cancelled", lambda: shown_state() == "cancelled")
+        if farm.job(second_id)["state"] != "JOB_STATE_CANCELLED":
+            fail("the page shows cancelled but the coordinator does not")
+        driver.find_element(By.ID, "retry").click()
+        wait_for("the page shows the retried job running", lambda: shown_state() == "running")
+        confirmed_click("delete")
+        wait_for("Delete goes back to the jobs page",
+                 lambda: driver.current_url.endswith("/dashboard/"))
+        status, _ = farm.request(f"/api/job?id={second_id}", client)
+        if status != 404:
+            fail(f"the deleted job is still there (/api/job answered {status})")
+        ok("Cancel, Retry and Delete act on a second job (404 once deleted)")
 
         # ---- the workers page: drain and undrain worker a.
         driver.get(farm.url + "/dashboard/workers")

@@ -163,11 +163,21 @@ def browser():
 
 
 def log_in(driver, farm, token):
+    """Fills in and sends the login form, and waits until the browser has left that page."""
     driver.get(farm.url + "/dashboard/login")
     field = driver.find_element(By.ID, "token")
     field.clear()
     field.send_keys(token)
+    form_page = driver.find_element(By.TAG_NAME, "html")
     driver.find_element(By.ID, "login").click()
+
+    def left():
+        try:
+            form_page.tag_name
+            return False
+        except StaleElementReferenceException:
+            return True
+    wait_for("the login form is sent", left)
 
 
 def ok(message):
@@ -204,7 +214,8 @@ def run(args):
         driver.set_script_timeout(10)
         # ---- a wrong token does not log in.
         log_in(driver, farm, "not-the-token")
-        problem = driver.find_element(By.ID, "problem").text
+        problem = wait_for("the login form answers",
+                           lambda: driver.find_element(By.ID, "problem").text)
         if "not valid" not in problem or session_cookie(driver):
             fail(f"a wrong token logged in (problem text {problem!r})")
         ok("a wrong token is refused at the login form")
@@ -273,7 +284,7 @@ def run(args):
         # ---- resume; the job finishes and the chart shows its estimates.
         driver.find_element(By.ID, "resume").click()
         wait_for("the job is done", lambda: farm.job(job_id)["state"] == "JOB_STATE_DONE",
-                 timeout=60)
+                 timeout=args.job_seconds)
         wait_for("the page shows done",
                  lambda: driver.find_element(By.CSS_SELECTOR, "#facts dd").text == "done")
         points = wait_for("the chart draws the estimates",
@@ -388,6 +399,8 @@ def main():
     parser.add_argument("--scene", required=True)
     parser.add_argument("--passes", type=int, default=64)
     parser.add_argument("--unit-delay-ms", type=int, default=150)
+    parser.add_argument("--job-seconds", type=float, default=60,
+                        help="how long the job may take once resumed")
     parser.add_argument("--screenshot", help="save the job page here (PNG)")
     parser.add_argument("--keep", action="store_true", help="keep the logs")
     args = parser.parse_args()

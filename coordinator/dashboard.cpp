@@ -194,6 +194,8 @@ void Dashboard::route(farm::HttpServer& server, const std::string& path, RouteKi
         };
         if (caller.role == DashboardRole::None) {
             if (kind == RouteKind::Page) {
+                // A browser without a session: the login form, which comes back here.
+                refuse(401, "");
                 loginPage(response, 401, "", request.target);
             } else {
                 refuse(401,

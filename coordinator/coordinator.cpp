@@ -909,6 +909,23 @@ std::vector<v1::WorkerInfo> Coordinator::listWorkers(bool includeDead) {
     return result;
 }
 
+std::map<uint64_t, std::vector<Coordinator::HeldUnit>> Coordinator::heldUnits() const {
+    std::lock_guard lock(m_mutex);
+    std::map<uint64_t, std::vector<HeldUnit>> held;
+    for (const auto& [id, job] : m_jobs) {
+        if (job->state != v1::JOB_STATE_RUNNING) continue;
+        // Only running jobs hold leases; the walk stops at the job's last leased unit.
+        uint32_t leased = m_scheduler->jobLeases(id).leased;
+        for (uint32_t unit = 0; leased > 0 && unit < job->grid.unitCount(); ++unit) {
+            const LeaseScheduler::UnitSlot& slot = m_scheduler->unit(id, unit);
+            if (slot.state != LeaseScheduler::UnitState::Leased) continue;
+            held[slot.workerId].push_back({id, unit});
+            --leased;
+        }
+    }
+    return held;
+}
+
 v1::WorkerInfo Coordinator::workerInfoLocked(uint64_t workerId, const WorkerRecord& worker) const {
     v1::WorkerInfo info = worker.info;
     const double since = m_scheduler->secondsSinceSeen(workerId);

@@ -103,6 +103,12 @@ class Coordinator {
     v1::GetJobLogResponse jobLog(uint64_t jobId, uint64_t afterSequence);
     // A draining worker is given no new unit (it finishes those it holds). Throws UnknownWorker.
     v1::WorkerInfo setWorkerDraining(uint64_t workerId, bool draining);
+    // The units workers hold right now, by worker id (the dashboard's "current unit").
+    struct HeldUnit {
+        uint64_t jobId = 0;
+        uint32_t unitIndex = 0;
+    };
+    std::map<uint64_t, std::vector<HeldUnit>> heldUnits() const;
     // Seconds between a worker's heartbeats (told at registration).
     double heartbeatIntervalSeconds() const { return std::max(0.1, m_options.leaseSeconds / 4); }
     // Silence after which a worker is listed SILENT: two heartbeat intervals, at least 3 s (an

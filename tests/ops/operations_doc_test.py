@@ -20,7 +20,8 @@ enforces:
 Every other line runs as written, in one bash session (so variables carry over from block to
 block, as in the reader's terminal) with `set -euo pipefail`: any failing command fails the test.
 The working directory stands for the checkout (a temporary directory with a link to its
-scenes/), PATH starts with the build tree's binaries, and HOME and TMPDIR are temporary.
+scenes/), PATH starts with the build tree's binaries, HOME and TMPDIR are temporary, and no
+ALPHORN_* variable of the caller's environment is passed on (a fresh machine has none).
 """
 import os
 import re

@@ -1007,6 +1007,7 @@ int main(int argc, char** argv) {
     <integer name="width" value="10"/><integer name="height" value="8"/>
   </camera>
   <mesh type="obj"><string name="filename" value="triangle.obj"/></mesh>
+  <emitter type="point"><point name="position" value="0, 3, 2"/><color name="power" value="1"/></emitter>
 </scene>)";
     const int border =
         -makeUnitBlock(*loadScene((scene / "s0.xml").string()), Tile{0, 0, 1, 1}).x0();

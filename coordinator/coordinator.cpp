@@ -201,6 +201,9 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
     m_scheduler->addJob(job.id, job.description.settings().priority(), job.grid, job.film->merged(),
                         attempts, running);
     if (!running) return;
+    // A crash inside submit() between the job's record and its directory leaves a running job
+    // without one: it starts from nothing, and its checkpoints go there.
+    fs::create_directories(jobDirectory(job.id));
     m_scheduler->setPaused(job.id, row.paused);
     if (!job.film->inMemory()) {
         const Checkpoint none{FilmBlock(0, 0, row.width, row.height), job.film->merged()};
@@ -393,8 +396,10 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     job->description = std::move(admitted.description);
     job->createdAt = m_clock->wallSeconds();
     try {
+        if (m_durableWriteHooks.before) m_durableWriteHooks.before();
         job->id = m_store.addJob(job->description, grid.width(), grid.height(),
                                  admitted.filterBorder, job->createdAt);
+        if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     } catch (const Error& e) {
         release();
         refuse(Kind::ResourceExhausted, absl::StrFormat("cannot record the job: %s", e.what()));
@@ -406,12 +411,13 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
             fail("%s exists already although the database had no job %u", jobDirectory(job->id),
                  job->id);
         fs::rename(staging, jobDirectory(job->id));
+        if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     } catch (const std::exception& e) {
         release();
         try {
             m_store.removeJob(job->id);
         } catch (const Error&) {
-            // The row stays; resume() fails that job with a clear error instead.
+            // The row stays: a restart resumes that job (its directory made anew).
         }
         refuse(Kind::ResourceExhausted, absl::StrFormat("cannot store the job: %s", e.what()));
     }
@@ -866,7 +872,9 @@ uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
     row.cores = request.cores();
     row.memoryBytes = request.memory_bytes();
     row.version = request.version();
+    if (m_durableWriteHooks.before) m_durableWriteHooks.before();
     const uint64_t id = m_store.addWorker(row, m_clock->wallSeconds());
+    if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     std::lock_guard lock(m_mutex);
     WorkerRecord& worker = m_workers[id];
     worker.info.set_worker_id(id);

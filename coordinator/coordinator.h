@@ -146,7 +146,8 @@ class Coordinator {
     }
 
     // Hooks around each durable write that storage could refuse or a crash could follow: a
-    // checkpoint file, a job's end, a failed attempt. The simulation uses them to stand for a
+    // checkpoint file, a job's end, a failed attempt, a submitted job's record (and, `after`
+    // only, its directory), a worker's registration. The simulation uses them to stand for a
     // full disk (`before` throws StorageError) and to copy the state directory as a crash at
     // that moment leaves it (`after`). Set them from the thread that drives the coordinator.
     struct DurableWriteHooks {

@@ -16,6 +16,8 @@ PACKAGES=(
 # (through Selenium) drives the web dashboard; charts are drawn with matplotlib.
 if [ "${1:-}" != "--build" ]; then
   PACKAGES+=(prometheus chromium chromium-driver python3-selenium python3-matplotlib python3-numpy)
+  # docs/operations.md's backup steps (its test runs them).
+  PACKAGES+=(sqlite3 rsync)
 fi
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -42,8 +42,9 @@ FILE_LAYERS = {
     "common/render/film.cpp": "lights and cameras",
     # The interface every integrator implements depends only on core; the scene holds one.
     "common/integrator/integrator.h": "scene",
-    # The statistical test plugins (<chi2test>, <ttest>) load scenes and run their integrators.
-    "common/stats/chi2test.cpp": "integrators",
+    # The statistical test plugins: <chi2test> samples BSDFs and phase functions, <ttest>
+    # loads scenes and runs their integrators.
+    "common/stats/chi2test.cpp": "materials and media",
     "common/stats/ttest.cpp": "integrators",
 }
 

@@ -5,7 +5,9 @@
 #include "common/core/image.h"
 #include "common/core/properties.h"
 #include "common/farm/bundle.h"
+#include "common/farm/chunks.h"
 #include "common/farm/convert.h"
+#include "common/farm/files.h"
 #include "common/farm/rpc.h"
 
 #include <absl/strings/ascii.h>
@@ -256,18 +258,18 @@ v1::JobStatus FarmClient::submit(const std::string& scenePath, const v1::JobSett
             if (!toUpload.erase(file.sha256)) continue;  // two paths with the same content go once
             std::ifstream in(file.sourcePath, std::ios::binary);
             if (!in) fail("%s: cannot open", file.sourcePath);
-            std::string buffer(farm::kChunkBytes, '\0');
-            bool more = true;
-            while (more) {
-                in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-                v1::BlobChunk chunk;
-                chunk.set_sha256(file.sha256);
-                chunk.set_data(buffer.substr(0, static_cast<size_t>(in.gcount())));
-                more = in.good();
-                chunk.set_last(!more);
-                bytes += chunk.data().size();
-                if (!writer->Write(chunk)) more = false;
-            }
+            const bool sent = farm::sendChunks(
+                in,
+                [&](std::string_view data, bool, bool last) {
+                    v1::BlobChunk chunk;
+                    chunk.set_sha256(file.sha256);
+                    chunk.set_data(std::string(data));
+                    chunk.set_last(last);
+                    bytes += data.size();
+                    return writer->Write(chunk);
+                },
+                farm::kChunkBytes);
+            if (!sent) break;  // the coordinator ended the stream: Finish() says why
         }
         writer->WritesDone();
         check(writer->Finish(), "PutBlobs");
@@ -365,27 +367,23 @@ std::string FarmClient::getImage(uint64_t jobId, v1::ImageFormat format, bool pr
     auto ctx = context(std::chrono::milliseconds(600 * 1000));
     auto reader = m_stub->GetImage(ctx.get(), request);
     std::string bytes;
-    v1::ImageChunk chunk;
     bool first = true;
-    while (reader->Read(&chunk)) {
-        if (first && header) {
-            *header = chunk;
-            header->clear_data();
-        }
-        first = false;
-        bytes += chunk.data();
-    }
+    farm::receiveChunks<grpc::ClientReader<v1::ImageChunk>, v1::ImageChunk>(
+        *reader, bytes, [&](const v1::ImageChunk& chunk) {
+            if (first && header) {
+                *header = chunk;
+                header->clear_data();
+            }
+            first = false;
+            return true;
+        });
     check(reader->Finish(), "GetImage");
     return bytes;
 }
 
 static void writeBytes(const std::string& path, const std::string& bytes) {
     if (auto parent = fs::path(path).parent_path(); !parent.empty()) fs::create_directories(parent);
-    std::ofstream out(path + ".partial", std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.close();
-    if (!out) fail("%s: cannot write", path);
-    fs::rename(path + ".partial", path);
+    farm::writeFileAtomically(path, bytes);
 }
 
 void FarmClient::fetchImages(uint64_t jobId, const std::string& exrPath, bool preview) {

@@ -1,6 +1,7 @@
 // alphorn-coordinator: the farm's long-running daemon. It accepts jobs from clients, leases
 // units to workers, merges their results exactly and checkpoints every job, so that a restart
 // on the same --state-dir resumes everything. See docs/operations.md.
+#include "common/farm/files.h"
 #include "common/farm/http_server.h"
 #include "common/farm/metrics.h"
 #include "common/farm/rpc.h"
@@ -12,7 +13,6 @@
 #include <CLI/CLI.hpp>
 
 #include <csignal>
-#include <fstream>
 #include <iostream>
 
 using namespace alphorn;
@@ -141,8 +141,7 @@ int main(int argc, char** argv) {
                      field("tls", httpServer->tls() ? "on" : "off"),
                      field("anonymous_metrics", anonymousMetrics ? "yes" : "no")});
             if (!httpPortFile.empty()) {
-                std::ofstream(httpPortFile + ".tmp") << httpServer->port() << "\n";
-                std::rename((httpPortFile + ".tmp").c_str(), httpPortFile.c_str());
+                farm::writeFileAtomically(httpPortFile, std::to_string(httpServer->port()) + "\n");
             }
         }
         coordinator.start();
@@ -150,8 +149,7 @@ int main(int argc, char** argv) {
                                           field("tls", tlsCert.empty() ? "off" : "on"),
                                           field("state_dir", options.stateDirectory)});
         if (!portFile.empty()) {
-            std::ofstream(portFile + ".tmp") << port << "\n";
-            std::rename((portFile + ".tmp").c_str(), portFile.c_str());
+            farm::writeFileAtomically(portFile, std::to_string(port) + "\n");
         }
 
         int signal = 0;

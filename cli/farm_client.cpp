@@ -2,13 +2,13 @@
 
 #include "cli/progress.h"
 #include "common/core/error.h"
+#include "common/core/image.h"
 #include "common/core/properties.h"
 #include "common/farm/bundle.h"
 #include "common/farm/chunks.h"
 #include "common/farm/convert.h"
 #include "common/farm/files.h"
 #include "common/farm/rpc.h"
-#include "common/render/image_io.h"
 
 #include <absl/strings/ascii.h>
 #include <absl/strings/match.h>

@@ -5,8 +5,8 @@
 #include "cli/farm_client.h"
 #include "cli/progress.h"
 
+#include "common/core/image.h"
 #include "common/farm/convert.h"
-#include "common/render/image_io.h"
 
 #include <absl/strings/str_format.h>
 

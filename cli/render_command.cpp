@@ -3,9 +3,9 @@
 #include "cli/farm_client.h"
 #include "cli/progress.h"
 
+#include "common/core/image.h"
 #include "common/integrator/integrator.h"
 #include "common/photon/radius_schedule.h"
-#include "common/render/image_io.h"
 #include "common/render/local_render.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"

@@ -109,7 +109,7 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
     }
     if (settings.name().empty()) settings.set_name(fs::path(bundle.scenePath).stem().string());
     const std::optional<RadiusSchedule> radiusSchedule = scene->integrator()->radiusSchedule();
-    admitted.filterBorder = -makeUnitBlock(*scene, Tile{0, 0, 1, 1}).x0();
+    admitted.filterBorder = filterBorder(*scene);
     scene.reset();
     auto refuse = [&](Kind kind, const std::string& message) {
         fs::remove_all(admitted.stagingDirectory);

@@ -1138,8 +1138,7 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
     }
 
     // Check and decompress outside the lock: this is the expensive part.
-    FilmBlock block(unit.tile.x0 - border, unit.tile.y0 - border, unit.tile.width() + 2 * border,
-                    unit.tile.height() + 2 * border);
+    FilmBlock block = unitBlock(unit.tile, border);
     if (header.block_x0() != block.x0() || header.block_y0() != block.y0() ||
         header.block_width() != block.width() || header.block_height() != block.height())
         throw FarmError(

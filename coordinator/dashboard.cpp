@@ -1,7 +1,7 @@
 #include "coordinator/dashboard.h"
 
+#include "common/core/image.h"
 #include "common/farm/rpc.h"
-#include "common/render/image_io.h"
 #include "coordinator/dashboard_assets.h"
 #include "coordinator/log.h"
 #include "coordinator/state_db.h"

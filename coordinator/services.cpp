@@ -1,12 +1,12 @@
 #include "coordinator/services.h"
 
+#include "common/core/image.h"
 #include "common/farm/chunks.h"
 #include "common/farm/error_reason.h"
 #include "common/farm/film_codec.h"
 #include "common/farm/metrics.h"
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
-#include "common/render/image_io.h"
 #include "coordinator/log.h"
 
 #include <filesystem>

@@ -11,7 +11,7 @@
 #include "common/farm/metrics.h"
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
-#include "common/photon/photon_pass.h"
+#include "common/integrator/photon_pass.h"
 #include "common/scene/scene.h"
 
 #include <absl/strings/str_replace.h>

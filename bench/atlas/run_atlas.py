@@ -460,7 +460,7 @@ def prediction_table(scenes, results, references, slopes_rows):
     for name in scenes:
         noise = references[name]["relative_noise"]
         for label, rows in results[name].items():
-            ratios = []
+            ratios, has_prediction = [], any(r.get("predicted_relative_rmse") for r in rows)
             for r in rows:
                 if not r.get("predicted_relative_rmse"):
                     continue
@@ -473,8 +473,9 @@ def prediction_table(scenes, results, references, slopes_rows):
             unbiased = label in UNBIASED and theory != 0.0
             kind = "unbiased" if unbiased else "biased: noise-only estimate"
             if not ratios:
-                lines.append("| %s | %s | %s | 0 | n/a | n/a | n/a | no point above twice the "
-                             "reference's noise |" % (name, label, kind))
+                lines.append("| %s | %s | %s | 0 | n/a | n/a | n/a | %s |" % (
+                    name, label, kind, "no point above twice the reference's noise"
+                    if has_prediction else "no prediction in the CSV (a run before the estimate)"))
                 continue
             ordered = sorted(ratios)
             median = (ordered[len(ordered) // 2] if len(ordered) % 2 else

@@ -491,15 +491,19 @@ def prediction_table(scenes, results, references, slopes_rows):
     return ("The film's predicted error against the truth:\n\n" + "\n".join(lines) + "\n")
 
 
-def check(out, scenes, results):
-    """The test's assertions: every series has rows, finite positive errors, the error at the
-    last point below 0.7 times the first (every atlas series falls from pass 1), CPU time growing
-    with passes, and every chart exists."""
+def check(out, catalogue, scenes, results):
+    """The test's assertions: every series of the catalogue has rows (a series whose renders
+    failed is missing), finite positive errors, the error at the last point below 0.7 times the
+    first (every atlas series falls from pass 1), CPU time growing with passes, a predicted
+    error from 2 passes on, and every chart exists."""
     problems = []
     for name in scenes:
         chart_path = os.path.join(out, name + ".png")
         if not (os.path.exists(chart_path) and os.path.getsize(chart_path) > 0):
             problems.append("%s: no chart" % name)
+        for s in catalogue[name]["series"]:
+            if s["label"] not in results[name]:
+                problems.append("%s %s: no rows (its renders failed)" % (name, s["label"]))
         for label, rows in results[name].items():
             errors = [float(r["relative_rmse"]) for r in rows]
             if len(rows) < 3:
@@ -509,6 +513,8 @@ def check(out, scenes, results):
             elif not errors[-1] < 0.7 * errors[0]:
                 problems.append("%s %s: the error does not fall with time: %s" % (name, label,
                                                                                   errors))
+            if not all(r.get("predicted_relative_rmse") for r in rows if int(r["passes"]) >= 2):
+                problems.append("%s %s: no predicted error at 2 passes or more" % (name, label))
             times = [float(r["cpu_seconds"]) for r in rows[1:]]  # (fit_slope: why not the first)
             if times != sorted(times):
                 problems.append("%s %s: CPU time does not grow with passes" % (name, label))
@@ -635,7 +641,7 @@ def finish(args, catalogue, names, atlas_rows, references):
         f.write(summary(names, results, references, slopes_rows))
     print("wrote %s/{atlas.csv,references.csv,slopes.csv,summary.md} and %d charts"
           % (os.path.relpath(args.out, ROOT), len(names)))
-    if args.check and not check(args.out, names, results):
+    if args.check and not check(args.out, catalogue, names, results):
         sys.exit(1)
 
 

@@ -8,8 +8,9 @@ against a long reference at a ladder of pass counts, against CPU and wall time.
 Writes into --out: atlas.csv (one row per render), references.csv (each scene's reference and
 its own noise), slopes.csv (fitted and theoretical slope per series), summary.md (the tables of
 docs/accuracy.md) and one chart per scene, SCENE.png. --quick runs a seconds-long slice (the
-Cornell box at 32 x 32: path_mis, the progressive photon mapper, bdpt and vcm) and --check then asserts that the pipeline worked: rows
-present, errors finite and falling, charts written (the CTest entry bench.atlas_slice).
+Cornell box at 32 x 32: path_mis, the progressive photon mapper, bdpt and vcm) and --check then
+asserts that the pipeline worked: every series present, errors finite and falling, predicted
+errors filled, charts written (the CTest entry bench.atlas_slice).
 
 Run it with Debian's /usr/bin/python3, which has matplotlib (tools/install-deps.sh).
 """

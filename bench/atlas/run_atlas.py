@@ -538,6 +538,9 @@ def main():
     parser.add_argument("--max-passes", type=int, default=4096)
     parser.add_argument("--quick", action="store_true", help="the seconds-long test slice")
     parser.add_argument("--check", action="store_true", help="assert the pipeline worked")
+    parser.add_argument("--series", default="",
+                        help="comma-separated label prefixes: re-measure only these series of "
+                        "the scenes, against the references already in --out and --work")
     parser.add_argument("--replot", action="store_true",
                         help="redraw charts and tables from the CSV files in --out")
     args = parser.parse_args()
@@ -573,19 +576,35 @@ def main():
 def measure(args, tool, work, catalogue, names):
     ladder = ",".join(str(2 ** i) for i in range(0, 31) if 2 ** i <= args.max_passes)
     references, atlas_rows = {}, []
-    # A run of some scenes keeps the other scenes' rows already in --out.
+    prefixes = [p for p in args.series.split(",") if p]
+    chosen = lambda label: not prefixes or any(label.startswith(p) for p in prefixes)
+    # A run of some scenes keeps the other scenes' rows already in --out; a run of some series
+    # keeps the other series' rows and the references they were measured against.
     if os.path.exists(os.path.join(args.out, "references.csv")):
         with open(os.path.join(args.out, "references.csv")) as f:
-            references = {r["scene"]: r for r in csv.DictReader(f) if r["scene"] not in names}
+            references = {r["scene"]: r for r in csv.DictReader(f)
+                          if prefixes or r["scene"] not in names}
         with open(os.path.join(args.out, "atlas.csv")) as f:
-            atlas_rows = [r for r in csv.DictReader(f) if r["scene"] in references]
+            atlas_rows = [r for r in csv.DictReader(f) if r["scene"] in references and not (
+                r["scene"] in names and prefixes and chosen(r["integrator"]))]
+    elif prefixes:
+        sys.exit("--series re-measures against the references of an earlier run; none in %s"
+                 % args.out)
     for name in names:
         scene = catalogue[name]
-        print("%s: reference" % name, flush=True)
-        budget = args.reference_cpu_budget * scene.get("reference_budget_factor", 1)
-        reference_path, references[name] = make_reference(tool, name, scene, work, budget)
+        if prefixes:
+            reference_path = os.path.join(work, "%s_ref.exr" % name)
+            if name not in references or not os.path.exists(reference_path):
+                sys.exit("%s: no reference of an earlier run (%s)" % (name, reference_path))
+            references[name]["relative_noise"] = float(references[name]["relative_noise"])
+        else:
+            print("%s: reference" % name, flush=True)
+            budget = args.reference_cpu_budget * scene.get("reference_budget_factor", 1)
+            reference_path, references[name] = make_reference(tool, name, scene, work, budget)
         noise = references[name]["relative_noise"]
         for s in scene["series"]:
+            if not chosen(s["label"]):
+                continue
             try:
                 rows = run_helper(tool, scene, integrator_args(s["integrator"], s["params"]) + [
                     "--seed", str(SERIES_SEED), "--passes", ladder, "--cpu-budget",

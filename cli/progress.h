@@ -53,10 +53,11 @@ std::string errorText(const RenderStatus& status, std::optional<double> targetEr
 std::string finalEstimateText(const RenderStatus& status, std::optional<double> targetError,
                               uint32_t cap);
 
-// --target-error E and --max-passes N (render, submit, cluster): a target needs the cap, and
-// excludes the options that fix the number of passes (`fixedPasses`).
+// --target-error E, --max-passes N and --adaptive (render, submit, cluster): a target needs the
+// cap and excludes the options that fix the number of passes (`fixedPasses`); --adaptive needs
+// a target.
 void addTargetErrorOptions(CLI::App& sub, std::optional<double>& targetError,
-                           std::optional<uint32_t>& maxPasses,
+                           std::optional<uint32_t>& maxPasses, bool& adaptive,
                            const std::vector<CLI::Option*>& fixedPasses);
 
 // The columns of the terminal on stderr (TIOCGWINSZ), else $COLUMNS, else 80.

@@ -112,8 +112,7 @@ void JobFilm::recordEstimate() {
 bool JobFilm::skipped(uint32_t unitIndex) const {
     if (!m_adaptive) return false;
     const RenderUnit unit = m_grid.unit(unitIndex);
-    const uint32_t finishedAt =
-        m_finishedAt[m_adaptiveTileOf[unitIndex % m_grid.tileCount()]];
+    const uint32_t finishedAt = m_finishedAt[m_adaptiveTileOf[unitIndex % m_grid.tileCount()]];
     return finishedAt > 0 && unit.passBegin >= finishedAt;
 }
 
@@ -135,7 +134,8 @@ void JobFilm::writeDecisions() const {
     if (m_path.empty()) return;
     // One line per finished tile: its index and the pass it finished at; the first line is the
     // last decision point that went on.
-    std::string text = absl::StrFormat("alphorn adaptive decisions 1\nlast %u\n", m_lastDecisionTaken);
+    std::string text =
+        absl::StrFormat("alphorn adaptive decisions 1\nlast %u\n", m_lastDecisionTaken);
     for (size_t t = 0; t < m_finishedAt.size(); ++t)
         if (m_finishedAt[t] > 0) text += absl::StrFormat("%u %u\n", t, m_finishedAt[t]);
     const std::string temporary = decisionsPath() + ".tmp";
@@ -216,8 +216,7 @@ void JobFilm::restore(Checkpoint checkpoint, bool keepFilm) {
         m_checkpointedCount = m_mergedCount;
         if (m_lastDecisionTaken > 0)
             m_decisionPasses = nextDecisionPasses(m_lastDecisionTaken, m_grid.passes());
-        if (m_passesComplete >= m_decisionPasses && m_passesComplete > 0)
-            decide(checkpoint.film);
+        if (m_passesComplete >= m_decisionPasses && m_passesComplete > 0) decide(checkpoint.film);
         // The scheduler is given the merged flags, skipped units included.
         m_newlySkipped.clear();
         if (keepFilm) m_film = std::move(checkpoint.film);
@@ -242,10 +241,9 @@ uint64_t JobFilm::countMerged(uint32_t unitIndex) {
     m_merged[unitIndex] = true;
     ++m_mergedCount;
     const RenderUnit unit = m_grid.unit(unitIndex);
-    const uint64_t samples =
-        skipped(unitIndex)
-            ? 0
-            : uint64_t(unit.tile.width()) * unit.tile.height() * (unit.passEnd - unit.passBegin);
+    const uint64_t samples = skipped(unitIndex) ? 0
+                                                : uint64_t(unit.tile.width()) * unit.tile.height() *
+                                                      (unit.passEnd - unit.passBegin);
     m_samplesMerged += samples;
     const uint32_t chunk = m_grid.chunkOf(unitIndex);
     if (++m_mergedPerChunk[chunk] == m_grid.tileCount())

@@ -14,9 +14,9 @@
 // (skipped; takeSkippedUnits() hands them to the LeaseScheduler), and the decisions taken are
 // written beside the checkpoint (CHECKPOINT.decisions) before any unit past the decision point is
 // leased, so a restarted coordinator knows which tiles finished: the film alone cannot tell
-// (skipped and merged units look alike, and the film has moved on). Not thread-safe: the caller serializes calls, except writeFile() and
-// readFile(), which do the file I/O outside the caller's lock (serialized per job by
-// writeMutex()).
+// (skipped and merged units look alike, and the film has moved on). Not thread-safe: the caller
+// serializes calls, except writeFile() and readFile(), which do the file I/O outside the caller's
+// lock (serialized per job by writeMutex()).
 #pragma once
 
 #include "alphorn/v1/farm.pb.h"

@@ -135,7 +135,7 @@ TEST(ErrorEstimateAdaptive, AFinishedTileGetsNoMorePasses) {
 // first passes it shares, so the difference has a small variance) has mean zero (Student's
 // t-test at 1%). Stopping on the halves' difference could bias the mean (a tile whose noise
 // happened to be low, and so its mean too for skewed noise, stops early); this would show it.
-TEST(ErrorEstimateAdaptive, TilesStoppingAtDifferentPassesLeaveTheImageUnbiased) {
+TEST(AdaptiveConvergence, TilesStoppingAtDifferentPassesLeaveTheImageUnbiased) {
     const int width = 64, height = 64;
     const std::shared_ptr<Scene> scene = pathTracedScene(width, height);
     const std::vector<Tile> tiles = adaptiveTiles(width, height);

@@ -195,7 +195,12 @@ static int runRender(const RenderOptions& options) {
         settings.crop ? resolveCrop(film, *settings.crop) : resolveImage(film, size.x(), size.y());
     writeEXR(output, image);
     writePNG(pngPathFor(output), image, options.exposure);
-    if (stoppedEarly)
+    if (stoppedEarly && settings.adaptive)
+        std::cerr << absl::StrFormat(
+            "%s after %u of %u passes: wrote %s and %s with the passes done (%.1f s)\n",
+            interrupted ? "interrupted" : "time limit reached", passesDone, settings.passes, output,
+            pngPathFor(output), seconds);
+    else if (stoppedEarly)
         std::cerr << absl::StrFormat(
             "%s after %u of %u passes: wrote %s and %s with the %u passes done (the same bytes as "
             "--passes %u, %.1f s)\n",

@@ -69,6 +69,18 @@ TEST(ErrorEstimateAdaptive, ATileFinishesWhenItsOwnErrorMeetsTheTarget) {
     EXPECT_EQ(decisions.finished, (std::vector<bool>{true, true})) << "limit 1 = RMSE 1";
     decisions = decideTiles(film, tiles, {false, true}, 8, 0.1);
     EXPECT_EQ(decisions.finished, (std::vector<bool>{true, true})) << "finished stays finished";
+    // A dark tile is related to the image's mean, not its own: pixel 1 has halves 0.5 and 1.5
+    // (mean 1, RMSE 0.5) beside a bright, noiseless pixel 0 (3): the image's mean is 2, so at
+    // target 0.3 the limit is 0.6 and the dark tile is finished (by its own mean it would not be).
+    FilmBlock dark(0, 0, 2, 1);
+    setPixel(dark.oddAt(0, 0), 3.0, 2.0);
+    setPixel(dark.at(0, 0), 3.0, 4.0);
+    setPixel(dark.oddAt(1, 0), 0.5, 2.0);
+    setPixel(dark.at(1, 0), 1.0, 4.0);
+    decisions = decideTiles(dark, tiles, {false, false}, 8, 0.3);
+    EXPECT_EQ(decisions.finished, (std::vector<bool>{true, true}));
+    decisions = decideTiles(dark, tiles, {false, false}, 8, 0.2);
+    EXPECT_EQ(decisions.finished, (std::vector<bool>{true, false})) << "limit 0.4 < RMSE 0.5";
     EXPECT_EQ(adaptiveTiles(70, 40).size(), 6u);
     EXPECT_EQ(adaptiveTiles(70, 40).back(), (Tile{64, 32, 70, 40}));
 }

@@ -130,7 +130,7 @@ void JobFilm::skipFinishedUnits() {
         }
 }
 
-void JobFilm::writeDecisions() const {
+void JobFilm::writeDecisions() {
     if (m_path.empty()) return;
     // One line per finished tile: its index and the pass it finished at; the first line is the
     // last decision point that went on.
@@ -143,9 +143,17 @@ void JobFilm::writeDecisions() const {
         std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
         out << text;
         out.flush();
-        if (!out) fail("cannot write %s", temporary);
+        if (!out) {
+            // Not thrown: the merge that led here is done. The job goes on, and shows the error
+            // as it shows a failed checkpoint; only a restart before the next successful write
+            // would lose the decision.
+            checkpointFailed("cannot write " + temporary);
+            return;
+        }
     }
-    std::filesystem::rename(temporary, decisionsPath());
+    std::error_code error;
+    std::filesystem::rename(temporary, decisionsPath(), error);
+    if (error) checkpointFailed("cannot write " + decisionsPath() + ": " + error.message());
 }
 
 void JobFilm::readDecisions() {

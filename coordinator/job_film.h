@@ -119,7 +119,7 @@ class JobFilm {
     bool skipped(uint32_t unitIndex) const;
     // Marks the units of tiles finished at `passes` that are not merged yet as skipped.
     void skipFinishedUnits();
-    void writeDecisions() const;
+    void writeDecisions();
     void readDecisions();
     std::string decisionsPath() const { return m_path + ".decisions"; }
     void resetState();

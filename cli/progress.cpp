@@ -25,13 +25,14 @@ std::string speedText(double samplesPerSecond, std::optional<double> raysPerSeco
 }
 
 std::string errorText(const std::optional<ErrorEstimate>& estimate,
-                      std::optional<double> targetError) {
+                      std::optional<double> targetError, std::optional<double> projected) {
     std::string text = "err ";
     text += estimate ? absl::StrFormat("%.3g%%", 100.0 * estimate->relativeRmse) : "-";
     if (targetError) {
         text += absl::StrFormat(" -> %.3g%%", 100.0 * *targetError);
         if (estimate)
-            text += absl::StrFormat(" (~%.0f passes)", projectedPasses(*estimate, *targetError));
+            text += absl::StrFormat(" (~%.0f passes)",
+                                    projected.value_or(projectedPasses(*estimate, *targetError)));
     }
     return text;
 }

@@ -48,6 +48,7 @@ job=2
 [[ $(job_field $job target_reached) == true ]] || fail "status does not say the target was reached"
 [[ $(job_field $job adaptive_tiles_finished) == 6 && $(job_field $job adaptive_tiles) == 6 ]] ||
     fail "status does not show 6 of 6 tiles finished: $("$ALPHORN" status $job --json)"
+"$ALPHORN" status $job | grep -q "6/6 tiles done" || fail "status does not show the tiles: $("$ALPHORN" status $job)"
 pass "two workers (tile 64 asked, 32 used) write the same bytes; status shows 6 of 6 tiles finished"
 
 "$ALPHORN" submit "$scene" --adaptive 2>"$WORK/refused.log" && fail "--adaptive without a target was accepted"

@@ -41,9 +41,16 @@ std::string statusErrorText(const v1::JobStatus& status) {
         estimate->passes = status.error_estimate_passes();
     }
     const v1::JobSettings& settings = status.settings();
-    return errorText(estimate, settings.has_target_error()
-                                   ? std::optional<double>(settings.target_error())
-                                   : std::nullopt);
+    // The coordinator's projection uses the slope it measured over the decision points.
+    std::string text = errorText(
+        estimate,
+        settings.has_target_error() ? std::optional<double>(settings.target_error()) : std::nullopt,
+        status.has_projected_passes() ? std::optional<double>(status.projected_passes())
+                                      : std::nullopt);
+    if (status.adaptive_tiles() > 0)
+        text += absl::StrFormat(" [%u/%u tiles done]", status.adaptive_tiles_finished(),
+                                status.adaptive_tiles());
+    return text;
 }
 
 void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options) {

@@ -173,7 +173,7 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
     for (const UnitAttemptsRow& unit : m_store.unitAttempts(job.id))
         if (unit.unitIndex < unitCount) attempts[unit.unitIndex] = unit.attempts;
     job.film = std::make_unique<JobFilm>(job.grid, jobDirectory(job.id) + "/film.ckpt",
-                                         targetError(settings));
+                                         targetError(settings), settings.adaptive());
     bool running = job.state == v1::JOB_STATE_RUNNING;
     if (running || job.state == v1::JOB_STATE_DONE) {
         const std::string checkpointPath = jobDirectory(job.id) + "/film.ckpt";
@@ -425,7 +425,8 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     job->grid = grid;
     job->filterBorder = admitted.filterBorder;
     job->film = std::make_unique<JobFilm>(grid, jobDirectory(job->id) + "/film.ckpt",
-                                          targetError(job->description.settings()));
+                                          targetError(job->description.settings()),
+                                          job->description.settings().adaptive());
     job->film->startEmpty();
 
     std::lock_guard lock(m_mutex);
@@ -1168,6 +1169,9 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
         }
         const uint32_t leaseLimit = job.film->leaseLimit();
         job.film->merge(unitIndex, block);
+        // An adaptive job's tiles that met the target: their later units are never leased.
+        if (const std::vector<uint32_t> skipped = job.film->takeSkippedUnits(); !skipped.empty())
+            m_scheduler->skipUnits(jobId, skipped);
         if (job.film->leaseLimit() != leaseLimit) {
             // A decision point passed: the units up to the next one may be leased now.
             m_scheduler->setLeaseLimit(jobId, job.film->leaseLimit());

@@ -17,7 +17,7 @@
 // earlier run's figures.
 //
 // usage: bench_photon_direct_light [passes=64] [referencePasses=512] [scene.xml ...]
-#include "common/render/image_io.h"
+#include "common/core/image.h"
 #include "common/render/unit.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"

@@ -7,7 +7,7 @@
 // crop. An integrator that cannot reach the scene's lights (mats with delta lights) renders
 // black: its efficiency is reported as zero rather than as a division by zero.
 //
-// Each scene also compares volume_path_mis with and without equiangular sampling (volume.h).
+// Each scene also compares volume_path_mis with and without equiangular sampling (equiangular.h).
 //
 // usage: bench_volume_efficiency [passes] [crop] [SCENE.xml ...]
 #include "common/farm/job_scene.h"

@@ -308,7 +308,8 @@ Command addClusterCommand(CLI::App& app) {
     auto* passes = sub->add_option("--passes,--spp", options->submit.passes,
                                    "With --render: passes (default: the scene's sampleCount)")
                        ->check(kPositiveCount);
-    addTargetErrorOptions(*sub, options->submit.targetError, options->submit.maxPasses, {passes});
+    addTargetErrorOptions(*sub, options->submit.targetError, options->submit.maxPasses,
+                          options->submit.adaptive, {passes});
     sub->add_option("--seed", options->submit.seed, "With --render: random seed");
     sub->add_option("--tile", options->submit.tile, "With --render: tile size");
     sub->add_flag("--json", options->json, "With --render: print the final job status as JSON");

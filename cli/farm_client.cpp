@@ -2,11 +2,13 @@
 
 #include "cli/progress.h"
 #include "common/core/error.h"
+#include "common/core/image.h"
 #include "common/core/properties.h"
 #include "common/farm/bundle.h"
+#include "common/farm/chunks.h"
 #include "common/farm/convert.h"
+#include "common/farm/files.h"
 #include "common/farm/rpc.h"
-#include "common/render/image_io.h"
 
 #include <absl/strings/ascii.h>
 #include <absl/strings/match.h>
@@ -39,9 +41,16 @@ std::string statusErrorText(const v1::JobStatus& status) {
         estimate->passes = status.error_estimate_passes();
     }
     const v1::JobSettings& settings = status.settings();
-    return errorText(estimate, settings.has_target_error()
-                                   ? std::optional<double>(settings.target_error())
-                                   : std::nullopt);
+    // The coordinator's projection uses the slope it measured over the decision points.
+    std::string text = errorText(
+        estimate,
+        settings.has_target_error() ? std::optional<double>(settings.target_error()) : std::nullopt,
+        status.has_projected_passes() ? std::optional<double>(status.projected_passes())
+                                      : std::nullopt);
+    if (status.adaptive_tiles() > 0)
+        text += absl::StrFormat(" [%u/%u tiles done]", status.adaptive_tiles_finished(),
+                                status.adaptive_tiles());
+    return text;
 }
 
 void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options) {
@@ -256,18 +265,18 @@ v1::JobStatus FarmClient::submit(const std::string& scenePath, const v1::JobSett
             if (!toUpload.erase(file.sha256)) continue;  // two paths with the same content go once
             std::ifstream in(file.sourcePath, std::ios::binary);
             if (!in) fail("%s: cannot open", file.sourcePath);
-            std::string buffer(farm::kChunkBytes, '\0');
-            bool more = true;
-            while (more) {
-                in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-                v1::BlobChunk chunk;
-                chunk.set_sha256(file.sha256);
-                chunk.set_data(buffer.substr(0, static_cast<size_t>(in.gcount())));
-                more = in.good();
-                chunk.set_last(!more);
-                bytes += chunk.data().size();
-                if (!writer->Write(chunk)) more = false;
-            }
+            const bool sent = farm::sendChunks(
+                in,
+                [&](std::string_view data, bool, bool last) {
+                    v1::BlobChunk chunk;
+                    chunk.set_sha256(file.sha256);
+                    chunk.set_data(std::string(data));
+                    chunk.set_last(last);
+                    bytes += data.size();
+                    return writer->Write(chunk);
+                },
+                farm::kChunkBytes);
+            if (!sent) break;  // the coordinator ended the stream: Finish() says why
         }
         writer->WritesDone();
         check(writer->Finish(), "PutBlobs");
@@ -365,27 +374,23 @@ std::string FarmClient::getImage(uint64_t jobId, v1::ImageFormat format, bool pr
     auto ctx = context(std::chrono::milliseconds(600 * 1000));
     auto reader = m_stub->GetImage(ctx.get(), request);
     std::string bytes;
-    v1::ImageChunk chunk;
     bool first = true;
-    while (reader->Read(&chunk)) {
-        if (first && header) {
-            *header = chunk;
-            header->clear_data();
-        }
-        first = false;
-        bytes += chunk.data();
-    }
+    farm::receiveChunks<grpc::ClientReader<v1::ImageChunk>, v1::ImageChunk>(
+        *reader, bytes, [&](const v1::ImageChunk& chunk) {
+            if (first && header) {
+                *header = chunk;
+                header->clear_data();
+            }
+            first = false;
+            return true;
+        });
     check(reader->Finish(), "GetImage");
     return bytes;
 }
 
 static void writeBytes(const std::string& path, const std::string& bytes) {
     if (auto parent = fs::path(path).parent_path(); !parent.empty()) fs::create_directories(parent);
-    std::ofstream out(path + ".partial", std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.close();
-    if (!out) fail("%s: cannot write", path);
-    fs::rename(path + ".partial", path);
+    farm::writeFileAtomically(path, bytes);
 }
 
 void FarmClient::fetchImages(uint64_t jobId, const std::string& exrPath, bool preview) {

@@ -103,6 +103,7 @@ struct SubmitOptions {
     // --target-error and its cap --max-passes (which then replaces `passes`).
     std::optional<double> targetError;
     std::optional<uint32_t> maxPasses;
+    bool adaptive = false;  // --adaptive: tile-adaptive passes (with a target)
 };
 
 // The job's error estimate for progress and status lines: "err 3.1% -> 2% (~64 passes)".

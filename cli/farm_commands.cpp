@@ -5,8 +5,8 @@
 #include "cli/farm_client.h"
 #include "cli/progress.h"
 
+#include "common/core/image.h"
 #include "common/farm/convert.h"
-#include "common/render/image_io.h"
 
 #include <absl/strings/str_format.h>
 
@@ -129,6 +129,7 @@ int runSubmit(FarmClient& client, const SubmitOptions& options, bool json) {
     if (options.targetError) {
         settings.set_target_error(*options.targetError);
         settings.set_passes(*options.maxPasses);  // the option parser insists on the cap
+        settings.set_adaptive(options.adaptive);
     }
     v1::JobStatus status = client.submit(options.scene, settings, json);
     if (!json)
@@ -174,7 +175,8 @@ Command addSubmitCommand(CLI::App& app) {
     auto* sppOption = sub->add_option("--spp", *spp, "Samples per pixel (= passes)")
                           ->excludes(passes)
                           ->check(kPositiveCount);
-    addTargetErrorOptions(*sub, options->targetError, options->maxPasses, {passes, sppOption});
+    addTargetErrorOptions(*sub, options->targetError, options->maxPasses, options->adaptive,
+                          {passes, sppOption});
     sub->add_option("--seed", options->seed, "Random seed; the image is a pure function of it");
     sub->add_option("--tile", options->tile, "Tile size in pixels (does not change the image)");
     sub->add_option("--passes-per-unit", options->passesPerUnit,

@@ -25,19 +25,24 @@ std::string speedText(double samplesPerSecond, std::optional<double> raysPerSeco
 }
 
 std::string errorText(const std::optional<ErrorEstimate>& estimate,
-                      std::optional<double> targetError) {
+                      std::optional<double> targetError, std::optional<double> projected) {
     std::string text = "err ";
     text += estimate ? absl::StrFormat("%.3g%%", 100.0 * estimate->relativeRmse) : "-";
     if (targetError) {
         text += absl::StrFormat(" -> %.3g%%", 100.0 * *targetError);
         if (estimate)
-            text += absl::StrFormat(" (~%.0f passes)", projectedPasses(*estimate, *targetError));
+            text += absl::StrFormat(" (~%.0f passes)",
+                                    projected.value_or(projectedPasses(*estimate, *targetError)));
     }
     return text;
 }
 
 std::string errorText(const RenderStatus& status, std::optional<double> targetError) {
-    return errorText(status.estimate, targetError);
+    std::string text = errorText(status.estimate, targetError);
+    if (status.adaptiveTiles > 0)
+        text += absl::StrFormat(" [%u/%u tiles done]", status.adaptiveTilesFinished,
+                                status.adaptiveTiles);
+    return text;
 }
 
 std::string finalEstimateText(const RenderStatus& status, std::optional<double> targetError,
@@ -55,12 +60,15 @@ std::string finalEstimateText(const RenderStatus& status, std::optional<double> 
                 "; target %.4g not reached within --max-passes %u "
                 "(about %.0f passes would reach it)",
                 *targetError, cap, projectedPasses(*status.estimate, *targetError));
+        if (status.adaptiveTiles > 0)
+            text += absl::StrFormat(" (adaptive: %u of %u tiles met it)",
+                                    status.adaptiveTilesFinished, status.adaptiveTiles);
     }
     return text;
 }
 
 void addTargetErrorOptions(CLI::App& sub, std::optional<double>& targetError,
-                           std::optional<uint32_t>& maxPasses,
+                           std::optional<uint32_t>& maxPasses, bool& adaptive,
                            const std::vector<CLI::Option*>& fixedPasses) {
     CLI::Option* target =
         sub.add_option("--target-error", targetError,
@@ -73,6 +81,10 @@ void addTargetErrorOptions(CLI::App& sub, std::optional<double>& targetError,
                            ->check(CLI::Range(1u, 1u << 20));
     target->needs(cap);
     cap->needs(target);
+    sub.add_flag("--adaptive", adaptive,
+                 "With --target-error: at each decision point, a 32x32-pixel tile whose own error "
+                 "meets the target gets no more passes")
+        ->needs(target);
     for (CLI::Option* fixed : fixedPasses) target->excludes(fixed);
 }
 

@@ -45,18 +45,21 @@ std::string speedText(double samplesPerSecond, std::optional<double> raysPerSeco
 
 // The error estimate in a progress line: "err 3.1%" (at the last decision point), with the
 // target "err 3.1% -> 2%" and the projected passes to reach it; "err -" before the first.
+// `projected`: the projected passes when known already (a farm job's status), else computed.
 std::string errorText(const std::optional<ErrorEstimate>& estimate,
-                      std::optional<double> targetError);
+                      std::optional<double> targetError,
+                      std::optional<double> projected = std::nullopt);
 std::string errorText(const RenderStatus& status, std::optional<double> targetError);
 // The closing line of a render about its error: the estimate at the last decision point, and
 // whether the target was reached or the cap stopped it.
 std::string finalEstimateText(const RenderStatus& status, std::optional<double> targetError,
                               uint32_t cap);
 
-// --target-error E and --max-passes N (render, submit, cluster): a target needs the cap, and
-// excludes the options that fix the number of passes (`fixedPasses`).
+// --target-error E, --max-passes N and --adaptive (render, submit, cluster): a target needs the
+// cap and excludes the options that fix the number of passes (`fixedPasses`); --adaptive needs
+// a target.
 void addTargetErrorOptions(CLI::App& sub, std::optional<double>& targetError,
-                           std::optional<uint32_t>& maxPasses,
+                           std::optional<uint32_t>& maxPasses, bool& adaptive,
                            const std::vector<CLI::Option*>& fixedPasses);
 
 // The columns of the terminal on stderr (TIOCGWINSZ), else $COLUMNS, else 80.

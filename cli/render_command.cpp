@@ -3,9 +3,9 @@
 #include "cli/farm_client.h"
 #include "cli/progress.h"
 
+#include "common/core/image.h"
 #include "common/integrator/integrator.h"
 #include "common/photon/radius_schedule.h"
-#include "common/render/image_io.h"
 #include "common/render/local_render.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
@@ -28,6 +28,7 @@ struct RenderOptions {
     std::string output;
     std::optional<uint32_t> spp, passes, maxPasses;
     std::optional<double> targetError;  // relative RMSE
+    bool adaptive = false;              // tile-adaptive passes (with a target)
     int threads = 0;
     uint64_t seed = 0;
     int tile = 64;
@@ -131,6 +132,7 @@ static int runRender(const RenderOptions& options) {
     if (options.targetError) {
         settings.targetError = options.targetError;
         settings.passes = *options.maxPasses;  // the option parser insists on the cap
+        settings.adaptive = options.adaptive;
     }
 
     std::string output = options.output;
@@ -145,6 +147,8 @@ static int runRender(const RenderOptions& options) {
     const std::optional<RadiusSchedule> radiusSchedule = scene->integrator()->radiusSchedule();
     const Vector2i size = scene->camera()->outputSize();
     if (!options.crop.empty()) settings.crop = cropWindow(options.crop, size);
+    if (settings.adaptive && settings.crop)
+        fail("--adaptive and --crop do not combine (the adaptive tiles cover the whole image)");
     settings.stop = &g_stop;
     stopOnInterrupt();
     uint32_t passesDone = 0;
@@ -191,7 +195,12 @@ static int runRender(const RenderOptions& options) {
         settings.crop ? resolveCrop(film, *settings.crop) : resolveImage(film, size.x(), size.y());
     writeEXR(output, image);
     writePNG(pngPathFor(output), image, options.exposure);
-    if (stoppedEarly)
+    if (stoppedEarly && settings.adaptive)
+        std::cerr << absl::StrFormat(
+            "%s after %u of %u passes: wrote %s and %s with the passes done (%.1f s)\n",
+            interrupted ? "interrupted" : "time limit reached", passesDone, settings.passes, output,
+            pngPathFor(output), seconds);
+    else if (stoppedEarly)
         std::cerr << absl::StrFormat(
             "%s after %u of %u passes: wrote %s and %s with the %u passes done (the same bytes as "
             "--passes %u, %.1f s)\n",
@@ -220,7 +229,8 @@ Command addRenderCommand(CLI::App& app) {
         sub->add_option("--passes", options->passes, "Number of passes (one sample per pixel each)")
             ->excludes(spp)
             ->check(kPositiveCount);
-    addTargetErrorOptions(*sub, options->targetError, options->maxPasses, {spp, passes});
+    addTargetErrorOptions(*sub, options->targetError, options->maxPasses, options->adaptive,
+                          {spp, passes});
     sub->add_option("--threads", options->threads, "Worker threads (default: all cores)")
         ->check(CLI::Range(0, 1024));
     sub->add_option("--seed", options->seed, "Random seed; the image is a pure function of it");

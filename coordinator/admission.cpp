@@ -6,6 +6,7 @@
 #include "common/farm/rpc.h"
 #include "common/integrator/integrator.h"
 #include "common/photon/radius_schedule.h"
+#include "common/render/error_estimate.h"
 #include "common/scene/scene.h"
 #include "coordinator/farm_error.h"
 
@@ -91,9 +92,20 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
             throw FarmError(Kind::InvalidArgument, problem);
         }
     }
+    if (settings.adaptive() && !settings.has_target_error()) {
+        fs::remove_all(admitted.stagingDirectory);
+        throw FarmError(Kind::InvalidArgument, "adaptive passes need a target error");
+    }
     if (settings.passes() == 0)
         settings.set_passes(static_cast<uint32_t>(scene->sampler()->sampleCount()));
     if (settings.tile_size() == 0) settings.set_tile_size(limits.defaultTileSize);
+    // An adaptive job's units each lie in one tile of the fixed adaptive grid: the tile size is
+    // the largest power of two not above the setting and the grid's (it does not change the image).
+    if (settings.adaptive()) {
+        uint32_t tile = 1;
+        while (tile * 2 <= std::min<uint32_t>(kAdaptiveTileSize, settings.tile_size())) tile *= 2;
+        settings.set_tile_size(tile);
+    }
     if (settings.passes_per_unit() == 0)
         settings.set_passes_per_unit(
             defaultPassesPerUnit(settings, size, limits.defaultPassesPerUnit));
@@ -109,7 +121,7 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
     }
     if (settings.name().empty()) settings.set_name(fs::path(bundle.scenePath).stem().string());
     const std::optional<RadiusSchedule> radiusSchedule = scene->integrator()->radiusSchedule();
-    admitted.filterBorder = -makeUnitBlock(*scene, Tile{0, 0, 1, 1}).x0();
+    admitted.filterBorder = filterBorder(*scene);
     scene.reset();
     auto refuse = [&](Kind kind, const std::string& message) {
         fs::remove_all(admitted.stagingDirectory);

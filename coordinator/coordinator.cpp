@@ -173,7 +173,7 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
     for (const UnitAttemptsRow& unit : m_store.unitAttempts(job.id))
         if (unit.unitIndex < unitCount) attempts[unit.unitIndex] = unit.attempts;
     job.film = std::make_unique<JobFilm>(job.grid, jobDirectory(job.id) + "/film.ckpt",
-                                         targetError(settings));
+                                         targetError(settings), settings.adaptive());
     bool running = job.state == v1::JOB_STATE_RUNNING;
     if (running || job.state == v1::JOB_STATE_DONE) {
         const std::string checkpointPath = jobDirectory(job.id) + "/film.ckpt";
@@ -201,6 +201,9 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
     m_scheduler->addJob(job.id, job.description.settings().priority(), job.grid, job.film->merged(),
                         attempts, running);
     if (!running) return;
+    // A crash inside submit() between the job's record and its directory leaves a running job
+    // without one: it starts from nothing, and its checkpoints go there.
+    fs::create_directories(jobDirectory(job.id));
     m_scheduler->setPaused(job.id, row.paused);
     if (!job.film->inMemory()) {
         const Checkpoint none{FilmBlock(0, 0, row.width, row.height), job.film->merged()};
@@ -393,8 +396,10 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     job->description = std::move(admitted.description);
     job->createdAt = m_clock->wallSeconds();
     try {
+        if (m_durableWriteHooks.before) m_durableWriteHooks.before();
         job->id = m_store.addJob(job->description, grid.width(), grid.height(),
                                  admitted.filterBorder, job->createdAt);
+        if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     } catch (const Error& e) {
         release();
         refuse(Kind::ResourceExhausted, absl::StrFormat("cannot record the job: %s", e.what()));
@@ -406,12 +411,13 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
             fail("%s exists already although the database had no job %u", jobDirectory(job->id),
                  job->id);
         fs::rename(staging, jobDirectory(job->id));
+        if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     } catch (const std::exception& e) {
         release();
         try {
             m_store.removeJob(job->id);
         } catch (const Error&) {
-            // The row stays; resume() fails that job with a clear error instead.
+            // The row stays: a restart resumes that job (its directory made anew).
         }
         refuse(Kind::ResourceExhausted, absl::StrFormat("cannot store the job: %s", e.what()));
     }
@@ -419,7 +425,8 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     job->grid = grid;
     job->filterBorder = admitted.filterBorder;
     job->film = std::make_unique<JobFilm>(grid, jobDirectory(job->id) + "/film.ckpt",
-                                          targetError(job->description.settings()));
+                                          targetError(job->description.settings()),
+                                          job->description.settings().adaptive());
     job->film->startEmpty();
 
     std::lock_guard lock(m_mutex);
@@ -866,7 +873,9 @@ uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
     row.cores = request.cores();
     row.memoryBytes = request.memory_bytes();
     row.version = request.version();
+    if (m_durableWriteHooks.before) m_durableWriteHooks.before();
     const uint64_t id = m_store.addWorker(row, m_clock->wallSeconds());
+    if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     std::lock_guard lock(m_mutex);
     WorkerRecord& worker = m_workers[id];
     worker.info.set_worker_id(id);
@@ -899,6 +908,23 @@ std::vector<v1::WorkerInfo> Coordinator::listWorkers(bool includeDead) {
         if (info.alive() || includeDead) result.push_back(std::move(info));
     }
     return result;
+}
+
+std::map<uint64_t, std::vector<Coordinator::HeldUnit>> Coordinator::heldUnits() const {
+    std::lock_guard lock(m_mutex);
+    std::map<uint64_t, std::vector<HeldUnit>> held;
+    for (const auto& [id, job] : m_jobs) {
+        if (job->state != v1::JOB_STATE_RUNNING) continue;
+        // Only running jobs hold leases; the walk stops at the job's last leased unit.
+        uint32_t leased = m_scheduler->jobLeases(id).leased;
+        for (uint32_t unit = 0; leased > 0 && unit < job->grid.unitCount(); ++unit) {
+            const LeaseScheduler::UnitSlot& slot = m_scheduler->unit(id, unit);
+            if (slot.state != LeaseScheduler::UnitState::Leased) continue;
+            held[slot.workerId].push_back({id, unit});
+            --leased;
+        }
+    }
+    return held;
 }
 
 v1::WorkerInfo Coordinator::workerInfoLocked(uint64_t workerId, const WorkerRecord& worker) const {
@@ -1113,8 +1139,7 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
     }
 
     // Check and decompress outside the lock: this is the expensive part.
-    FilmBlock block(unit.tile.x0 - border, unit.tile.y0 - border, unit.tile.width() + 2 * border,
-                    unit.tile.height() + 2 * border);
+    FilmBlock block = unitBlock(unit.tile, border);
     if (header.block_x0() != block.x0() || header.block_y0() != block.y0() ||
         header.block_width() != block.width() || header.block_height() != block.height())
         throw FarmError(
@@ -1144,6 +1169,9 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
         }
         const uint32_t leaseLimit = job.film->leaseLimit();
         job.film->merge(unitIndex, block);
+        // An adaptive job's tiles that met the target: their later units are never leased.
+        if (const std::vector<uint32_t> skipped = job.film->takeSkippedUnits(); !skipped.empty())
+            m_scheduler->skipUnits(jobId, skipped);
         if (job.film->leaseLimit() != leaseLimit) {
             // A decision point passed: the units up to the next one may be leased now.
             m_scheduler->setLeaseLimit(jobId, job.film->leaseLimit());

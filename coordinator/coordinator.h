@@ -103,6 +103,12 @@ class Coordinator {
     v1::GetJobLogResponse jobLog(uint64_t jobId, uint64_t afterSequence);
     // A draining worker is given no new unit (it finishes those it holds). Throws UnknownWorker.
     v1::WorkerInfo setWorkerDraining(uint64_t workerId, bool draining);
+    // The units workers hold right now, by worker id (the dashboard's "current unit").
+    struct HeldUnit {
+        uint64_t jobId = 0;
+        uint32_t unitIndex = 0;
+    };
+    std::map<uint64_t, std::vector<HeldUnit>> heldUnits() const;
     // Seconds between a worker's heartbeats (told at registration).
     double heartbeatIntervalSeconds() const { return std::max(0.1, m_options.leaseSeconds / 4); }
     // Silence after which a worker is listed SILENT: two heartbeat intervals, at least 3 s (an
@@ -140,7 +146,8 @@ class Coordinator {
     }
 
     // Hooks around each durable write that storage could refuse or a crash could follow: a
-    // checkpoint file, a job's end, a failed attempt. The simulation uses them to stand for a
+    // checkpoint file, a job's end, a failed attempt, a submitted job's record (and, `after`
+    // only, its directory), a worker's registration. The simulation uses them to stand for a
     // full disk (`before` throws StorageError) and to copy the state directory as a crash at
     // that moment leaves it (`after`). Set them from the thread that drives the coordinator.
     struct DurableWriteHooks {

@@ -681,6 +681,25 @@ TEST_F(CoordinatorJob, AFinishedJobWhoseCheckpointIsLostIsRenderedAgain) {
     coordinator.stop();
 }
 
+// A crash inside submit() after the job's record but before its directory: the restarted
+// coordinator makes the directory, so the job's checkpoints can be written and it finishes
+// (before, its final checkpoint failed for ever and it stayed running).
+TEST_F(CoordinatorJob, AJobRecordedWithoutItsDirectoryRunsToTheEnd) {
+    uint64_t jobId = 0;
+    {
+        Coordinator coordinator(m_options);
+        jobId = coordinator.submit(upload(coordinator)).job_id();
+        coordinator.stop();
+        fs::remove_all(coordinator.jobDirectory(jobId));
+    }
+    Coordinator coordinator(m_options);
+    renderAllUnits(coordinator, coordinator.registerWorker(v1::RegisterRequest()));
+    const v1::JobStatus status = coordinator.listJobs(jobId).at(0);
+    EXPECT_EQ(status.state(), v1::JOB_STATE_DONE) << status.error();
+    EXPECT_EQ(coordinator.snapshot(jobId, false).film.serialize(), localFilm());
+    coordinator.stop();
+}
+
 // ---- job and worker control ---------------------------------------------------------------
 
 // Paused: no new leases, while the lease already out merges; resumed: leasing again. The pause

@@ -7,9 +7,16 @@
 // units of passes below D may be leased and merged (leaseLimit(), which the LeaseScheduler
 // enforces), so the film it is taken from holds exactly passes [0, D): the decision, and so the
 // stopping pass and the image, are the same for any number of workers, any order of results
-// and any coordinator restart. Not thread-safe: the caller serializes calls, except writeFile() and
-// readFile(), which do the file I/O outside the caller's lock (serialized per job by
-// writeMutex()).
+// and any coordinator restart.
+//
+// An adaptive job (JobSettings.adaptive) decides per tile of the fixed adaptive grid
+// (decideTiles): a finished tile's units of later passes are marked merged without a result
+// (skipped; takeSkippedUnits() hands them to the LeaseScheduler), and the decisions taken are
+// written beside the checkpoint (CHECKPOINT.decisions) before any unit past the decision point is
+// leased, so a restarted coordinator knows which tiles finished: the film alone cannot tell
+// (skipped and merged units look alike, and the film has moved on). Not thread-safe: the caller
+// serializes calls, except writeFile() and readFile(), which do the file I/O outside the caller's
+// lock (serialized per job by writeMutex()).
 #pragma once
 
 #include "alphorn/v1/farm.pb.h"
@@ -22,6 +29,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace alphorn::coordinator {
@@ -30,8 +38,10 @@ class JobFilm {
   public:
     JobFilm() = default;
     // `targetError`: the job stops at the first decision point whose estimate reaches it.
+    // `adaptive` (with a target): tile-adaptive passes; the grid's tiles must each lie in one
+    // tile of the adaptive grid.
     JobFilm(const farm::JobGrid& grid, std::string checkpointPath,
-            std::optional<double> targetError = std::nullopt);
+            std::optional<double> targetError = std::nullopt, bool adaptive = false);
     JobFilm(JobFilm&&) = delete;
 
     // Memory a running job's film and merged flags take.
@@ -61,6 +71,12 @@ class JobFilm {
     // The estimate at the last decision point (see JobStatus.error_estimate).
     const std::optional<ErrorEstimate>& estimate() const { return m_estimate; }
     const std::optional<double>& targetError() const { return m_targetError; }
+    bool adaptive() const { return m_adaptive; }
+    uint32_t adaptiveTiles() const { return static_cast<uint32_t>(m_adaptiveTiles.size()); }
+    uint32_t adaptiveTilesFinished() const { return m_finishedCount; }
+    // Units skipped (marked merged without a result) since the last call, for
+    // LeaseScheduler::skipUnits.
+    std::vector<uint32_t> takeSkippedUnits() { return std::exchange(m_newlySkipped, {}); }
     // The passes the job is expected to end with: all of them, or for a job with a target error
     // the decision point at or after the projected passes (the cap without an estimate yet).
     uint32_t expectedPasses() const;
@@ -96,8 +112,19 @@ class JobFilm {
     uint32_t checkpointsWritten() const { return m_checkpointsWritten; }
 
   private:
-    // Marks the unit merged and counts it; returns its samples (tile pixels x passes).
+    // Marks the unit merged and counts it; returns its samples (tile pixels x passes, none for
+    // a skipped unit).
     uint64_t countMerged(uint32_t unitIndex);
+    // An adaptive job's unit of a finished tile at or after the pass the tile finished.
+    bool skipped(uint32_t unitIndex) const;
+    // Marks the units of tiles finished at `passes` that are not merged yet as skipped.
+    void skipFinishedUnits();
+    void writeDecisions();
+    void readDecisions();
+    std::string decisionsPath() const { return m_path + ".decisions"; }
+    void resetState();
+    // Adds the estimate just made to the history and gives it the measured slope.
+    void recordEstimate();
     // At a decision point: the estimate, and whether the target stops the job.
     void decide(const FilmBlock& film);
 
@@ -112,7 +139,15 @@ class JobFilm {
     std::optional<double> m_targetError;
     uint32_t m_decisionPasses = 0;  // the next decision point
     std::optional<ErrorEstimate> m_estimate;
+    std::vector<ErrorEstimate> m_history;  // estimates at the decision points (for the slope)
     bool m_targetReached = false;
+    bool m_adaptive = false;
+    std::vector<Tile> m_adaptiveTiles;
+    std::vector<uint32_t> m_adaptiveTileOf;  // per tile of the job's grid
+    std::vector<uint32_t> m_finishedAt;      // per adaptive tile: the pass it finished at, or 0
+    uint32_t m_finishedCount = 0;
+    uint32_t m_lastDecisionTaken = 0;  // an adaptive job's last decision point that went on
+    std::vector<uint32_t> m_newlySkipped;
     std::string m_checkpointError;
     std::mutex m_writeMutex;
 };

@@ -183,6 +183,75 @@ TEST(JobFilm, ACheckpointRestoresTheDecisions) {
     fs::remove_all(dir);
 }
 
+// A unit whose pass 0 and 1 are grey 1 + amplitude and 1 - amplitude, later passes 1: an
+// adaptive tile's relative RMSE is 2 amplitude / D after D passes (the image's mean is 1).
+FilmBlock noiseBlock(const RenderUnit& unit, double amplitude) {
+    FilmBlock block(unit.tile.x0, unit.tile.y0, unit.tile.width(), unit.tile.height());
+    for (int y = block.y0(); y < block.y0() + block.height(); ++y)
+        for (int x = block.x0(); x < block.x0() + block.width(); ++x)
+            for (uint32_t pass = unit.passBegin; pass < unit.passEnd; ++pass) {
+                const double value = 1.0 + (pass == 0 ? amplitude : pass == 1 ? -amplitude : 0.0);
+                for (PixelSum* sum : {&block.at(x, y), pass % 2 ? &block.oddAt(x, y) : nullptr}) {
+                    if (!sum) continue;
+                    for (int c = 0; c < 3; ++c) sum->rgb[c] += toFixedPoint(value);
+                    sum->weight += toFixedPoint(1.0);
+                }
+            }
+    return block;
+}
+
+// An adaptive job: the left 32x32 tile (error 0.5 / D) meets the target 0.2 at 4 passes and its
+// later units are skipped, never to be leased; the right one (2 / D) goes on to 16. A restart
+// after the decision at 8 reads the decisions beside the checkpoint and goes on the same way.
+TEST(JobFilm, AnAdaptiveJobSkipsTheUnitsOfFinishedTilesAcrossARestart) {
+    const fs::path dir =
+        fs::temp_directory_path() / ("alphorn_job_film_adaptive_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const std::string path = (dir / "film.ckpt").string();
+    // 64 x 32 pixels in tiles of 16: 4 x 2 unit tiles, 2 adaptive tiles; 32 passes in chunks of 2.
+    const farm::JobGrid grid(64, 32, 16, 32, 2);
+    const auto block = [&](uint32_t i) {
+        const RenderUnit unit = grid.unit(i);
+        return noiseBlock(unit, unit.tile.x0 < 32 ? 0.25 : 1.0);
+    };
+    JobFilm film(grid, path, 0.2, true);
+    film.startEmpty();
+    EXPECT_EQ(film.adaptiveTiles(), 2u);
+    for (uint32_t i = 0, limit = film.leaseLimit(); i < limit; ++i) film.merge(i, block(i));
+    EXPECT_EQ(film.adaptiveTilesFinished(), 1u);
+    const std::vector<uint32_t> skipped = film.takeSkippedUnits();
+    EXPECT_EQ(skipped.size(), 4u * 14) << "the left tile's 4 unit tiles x chunks of passes 4-31";
+    for (uint32_t i : skipped) {
+        EXPECT_LT(grid.unit(i).tile.x0, 32);
+        EXPECT_GE(grid.unit(i).passBegin, 4u);
+    }
+    EXPECT_EQ(film.leaseLimit(), 4u * 8) << "the passes before 8";
+    for (uint32_t i = 0, limit = film.leaseLimit(); i < limit; ++i)
+        if (!film.merged()[i]) film.merge(i, block(i));
+    EXPECT_FALSE(film.complete());
+    EXPECT_EQ(film.adaptiveTilesFinished(), 1u);
+    EXPECT_EQ(film.leaseLimit(), 8u * 8) << "the passes before 16";
+    film.writeFile(film.copy());
+
+    JobFilm restored(grid, path, 0.2, true);
+    restored.restore(restored.readFile(), true);
+    EXPECT_EQ(restored.adaptiveTilesFinished(), 1u);
+    EXPECT_EQ(restored.leaseLimit(), film.leaseLimit());
+    EXPECT_EQ(restored.merged(), film.merged());
+    EXPECT_EQ(restored.passesComplete(), film.passesComplete());
+    for (uint32_t i = 0, limit = restored.leaseLimit(); i < limit; ++i)
+        if (!restored.merged()[i]) restored.merge(i, block(i));
+    EXPECT_TRUE(restored.complete());
+    EXPECT_TRUE(restored.targetReached());
+    EXPECT_EQ(restored.adaptiveTilesFinished(), 2u);
+    ASSERT_TRUE(restored.estimate());
+    EXPECT_EQ(restored.estimate()->passes, 16u);
+    // Samples: the left tile's 4 passes and the right tile's 16 over 32 x 32 pixels each.
+    EXPECT_EQ(restored.samplesMerged(), 32u * 32 * (4 + 16));
+    fs::remove_all(dir);
+}
+
 // A checkpoint of version 1 (totals only) is read as a film without halves: the job goes on
 // without an error estimate.
 TEST(JobFilm, AVersion1CheckpointIsReadWithoutAnEstimate) {

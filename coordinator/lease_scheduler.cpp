@@ -250,6 +250,16 @@ bool LeaseScheduler::markMerged(uint64_t jobId, uint32_t unitIndex, uint64_t lea
     return true;
 }
 
+void LeaseScheduler::skipUnits(uint64_t jobId, const std::vector<uint32_t>& unitIndices) {
+    Job& target = job(jobId);
+    for (uint32_t unitIndex : unitIndices) {
+        UnitSlot& slot = target.units.at(unitIndex);
+        if (slot.state == UnitState::Leased) release(target, slot);
+        target.pending.erase(unitIndex);
+        slot.state = UnitState::Merged;
+    }
+}
+
 bool LeaseScheduler::holds(uint64_t jobId, uint32_t unitIndex, uint64_t leaseId) const {
     const Job& target = job(jobId);
     return target.running && unitIndex < target.units.size() &&

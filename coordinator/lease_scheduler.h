@@ -78,6 +78,10 @@ class LeaseScheduler {
     // `unitLimit` on are neither leased, re-adopted nor merged until it is raised. Every unit
     // of a job may be, until this is called.
     void setLeaseLimit(uint64_t jobId, uint32_t unitLimit);
+    // Units an adaptive job no longer needs (their tile met the target, JobFilm): they count as
+    // merged and are never leased. A lease on one (none is expected: they lie past the decision
+    // barrier) is dropped.
+    void skipUnits(uint64_t jobId, const std::vector<uint32_t>& unitIndices);
     // A paused job gets no new leases; its leases out may still be renewed, merged and failed.
     void setPaused(uint64_t jobId, bool paused);
     bool paused(uint64_t jobId) const;

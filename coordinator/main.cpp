@@ -1,10 +1,12 @@
 // alphorn-coordinator: the farm's long-running daemon. It accepts jobs from clients, leases
 // units to workers, merges their results exactly and checkpoints every job, so that a restart
 // on the same --state-dir resumes everything. See docs/operations.md.
+#include "common/farm/files.h"
 #include "common/farm/http_server.h"
 #include "common/farm/metrics.h"
 #include "common/farm/rpc.h"
 #include "coordinator/coordinator.h"
+#include "coordinator/dashboard.h"
 #include "coordinator/log.h"
 #include "coordinator/metrics.h"
 #include "coordinator/services.h"
@@ -12,7 +14,6 @@
 #include <CLI/CLI.hpp>
 
 #include <csignal>
-#include <fstream>
 #include <iostream>
 
 using namespace alphorn;
@@ -65,7 +66,8 @@ int main(int argc, char** argv) {
     CLI::Option* http = app.add_option(
         "--http-listen", httpListen,
         "Serve HTTP on this address (host:port; port 0 picks a free one): /metrics for "
-        "Prometheus, with TLS when --tls-cert is given. Off by default");
+        "Prometheus and, with --dashboard, the web dashboard; with TLS when --tls-cert is "
+        "given. Off by default");
     app.add_option("--http-port-file", httpPortFile,
                    "Write the bound HTTP port to this file once listening")
         ->needs(http);
@@ -76,6 +78,16 @@ int main(int argc, char** argv) {
     app.add_flag("--http-anonymous-metrics", anonymousMetrics,
                  "Serve /metrics to anyone, without a token (only on a trusted network)")
         ->needs(http);
+    bool dashboard = false;
+    std::string viewerTokenFile;
+    CLI::Option* dashboardFlag =
+        app.add_flag("--dashboard", dashboard,
+                     "Serve the web dashboard on --http-listen (/dashboard/; log in with the "
+                     "client token, or the viewer token to look only)")
+            ->needs(http);
+    app.add_option("--dashboard-viewer-token-file", viewerTokenFile,
+                   "File holding a token that may look at the dashboard but not act")
+        ->needs(dashboardFlag);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -109,6 +121,14 @@ int main(int argc, char** argv) {
                     "the metrics token must differ from the worker token (whoever scrapes "
                     "metrics must not be able to pose as a worker)");
         }
+        std::string viewerToken;
+        if (!viewerTokenFile.empty()) {
+            viewerToken = farm::readTokenFile(viewerTokenFile);
+            if (viewerToken == workerToken || viewerToken == clientToken)
+                fail(
+                    "the dashboard viewer token must differ from the client and worker tokens "
+                    "(a viewer must not be able to act or to pose as a worker)");
+        }
         Coordinator coordinator(options);
         ClientServiceImpl clientService(coordinator, clientToken);
         WorkerServiceImpl workerService(coordinator, workerToken);
@@ -124,7 +144,8 @@ int main(int argc, char** argv) {
         builder.RegisterService(&workerService);
         std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
         if (!server || port == 0) fail("cannot listen on %s", listen);
-        // Declared after the coordinator, so it stops serving before the coordinator goes.
+        // Declared after the coordinator, so they stop before the coordinator goes.
+        std::unique_ptr<Dashboard> webDashboard;
         std::unique_ptr<farm::HttpServer> httpServer;
         if (!httpListen.empty()) {
             httpServer = std::make_unique<farm::HttpServer>(
@@ -135,14 +156,20 @@ int main(int argc, char** argv) {
                                {farm::CoordinatorMetrics::registry(),
                                 std::make_shared<CoordinatorStateMetrics>(coordinator)},
                                metricsAccess);
+            if (dashboard) {
+                webDashboard = std::make_unique<Dashboard>(
+                    coordinator, DashboardOptions{clientToken, viewerToken, !tlsCert.empty()});
+                webDashboard->install(*httpServer);
+                webDashboard->start();
+            }
             httpServer->start();
             logInfo("http.listening",
                     {field("address", httpListen), field("port", httpServer->port()),
                      field("tls", httpServer->tls() ? "on" : "off"),
-                     field("anonymous_metrics", anonymousMetrics ? "yes" : "no")});
+                     field("anonymous_metrics", anonymousMetrics ? "yes" : "no"),
+                     field("dashboard", dashboard ? "on" : "off")});
             if (!httpPortFile.empty()) {
-                std::ofstream(httpPortFile + ".tmp") << httpServer->port() << "\n";
-                std::rename((httpPortFile + ".tmp").c_str(), httpPortFile.c_str());
+                farm::writeFileAtomically(httpPortFile, std::to_string(httpServer->port()) + "\n");
             }
         }
         coordinator.start();
@@ -150,8 +177,7 @@ int main(int argc, char** argv) {
                                           field("tls", tlsCert.empty() ? "off" : "on"),
                                           field("state_dir", options.stateDirectory)});
         if (!portFile.empty()) {
-            std::ofstream(portFile + ".tmp") << port << "\n";
-            std::rename((portFile + ".tmp").c_str(), portFile.c_str());
+            farm::writeFileAtomically(portFile, std::to_string(port) + "\n");
         }
 
         int signal = 0;
@@ -159,6 +185,7 @@ int main(int argc, char** argv) {
         logInfo("coordinator.stopping", {field("signal", signal)});
         coordinator.beginStop();
         if (httpServer) httpServer->stop();
+        if (webDashboard) webDashboard->stop();
         server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
         coordinator.stop();
         return 0;

@@ -1,11 +1,12 @@
 #include "coordinator/services.h"
 
+#include "common/core/image.h"
+#include "common/farm/chunks.h"
 #include "common/farm/error_reason.h"
 #include "common/farm/film_codec.h"
 #include "common/farm/metrics.h"
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
-#include "common/render/image_io.h"
 #include "coordinator/log.h"
 
 #include <filesystem>
@@ -65,16 +66,15 @@ grpc::Status guarded(grpc::ServerContext* context, const std::string& token, con
 template <typename Chunk>
 bool streamBytes(grpc::ServerWriter<Chunk>* writer, const std::string& bytes,
                  const std::function<void(Chunk&)>& first) {
-    size_t offset = 0;
-    do {
-        Chunk chunk;
-        if (offset == 0) first(chunk);
-        const size_t n = std::min(farm::kChunkBytes, bytes.size() - offset);
-        chunk.set_data(bytes.substr(offset, n));
-        offset += n;
-        if (!writer->Write(chunk)) return false;
-    } while (offset < bytes.size());
-    return true;
+    return farm::sendChunks(
+        bytes,
+        [&](std::string_view data, bool isFirst, bool) {
+            Chunk chunk;
+            if (isFirst) first(chunk);
+            chunk.set_data(std::string(data));
+            return writer->Write(chunk);
+        },
+        farm::kChunkBytes);
 }
 
 }  // namespace
@@ -370,13 +370,14 @@ grpc::Status WorkerServiceImpl::ReportResult(grpc::ServerContext* context,
         if (header.error().empty() && !header.handed_back() && header.compressed_size() > limit)
             return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
                                 "the result is larger than any unit of the job");
-        v1::ResultChunk chunk;
-        while (reader->Read(&chunk)) {
-            data += chunk.data();
-            if (data.size() > header.compressed_size())
-                return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
-                                    "more result bytes than announced");
-        }
+        const bool withinSize =
+            farm::receiveChunks<grpc::ServerReader<v1::ResultChunk>, v1::ResultChunk>(
+                *reader, data, [&](const v1::ResultChunk& chunk) {
+                    return data.size() + chunk.data().size() <= header.compressed_size();
+                });
+        if (!withinSize)
+            return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                                "more result bytes than announced");
         if (data.size() != header.compressed_size())
             return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
                                 "the result stream ended early");
@@ -400,16 +401,15 @@ grpc::Status WorkerServiceImpl::GetBlob(grpc::ServerContext* context,
             return grpc::Status(grpc::StatusCode::NOT_FOUND, "no blob " + request->sha256());
         std::ifstream file(m_coordinator.blobs().pathOf(request->sha256()), std::ios::binary);
         const uint64_t total = m_coordinator.blobs().size(request->sha256());
-        std::string buffer(farm::kChunkBytes, '\0');
-        bool first = true;
-        do {
-            file.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-            v1::GetBlobChunk chunk;
-            if (first) chunk.set_total_size(total);
-            first = false;
-            chunk.set_data(buffer.substr(0, static_cast<size_t>(file.gcount())));
-            if (!writer->Write(chunk)) break;
-        } while (file);
+        farm::sendChunks(
+            file,
+            [&](std::string_view data, bool first, bool) {
+                v1::GetBlobChunk chunk;
+                if (first) chunk.set_total_size(total);
+                chunk.set_data(std::string(data));
+                return writer->Write(chunk);
+            },
+            farm::kChunkBytes);
         return grpc::Status::OK;
     });
 }

@@ -4,10 +4,12 @@
 // deliver synthetic unit results: the film of a unit is a pure function of (the job id the worker
 // was told, unit, pass), so the expected final film of a job is the direct sum over its units.
 // Schedules mix worker crashes, hangs with late returns, duplicate and late results, failures and
-// hand-backs, results for cancelled jobs, several jobs with priorities, cancels, a full disk,
-// coordinator crashes (the state directory copied as it is on disk, between two steps or right
-// after a durable write inside one, then reopened) and graceful restarts. After every step the
-// invariants are checked (checkInvariants, restarted); a failing seed prints its number and its
+// hand-backs, results for cancelled jobs, several jobs with priorities, cancels, retention (ended
+// jobs, their blobs and silent workers forgotten after a keep time chosen per seed), a full disk
+// (also on submit and on a worker's registration), coordinator crashes (the state directory
+// copied as it is on disk, between two steps or right after a durable write inside one, e.g.
+// inside a submission, then reopened) and graceful restarts. After every step the invariants are
+// checked (checkInvariants, checkStorage, restarted); a failing seed prints its number and its
 // last steps, and replays with --seed (or ALPHORN_SIM_SEED).
 //
 // Usage: alphorn_coordinator_simulation [--seeds N] [--first-seed S] [--seed S] [--steps K]
@@ -25,11 +27,14 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -101,7 +106,7 @@ class Simulation {
           m_root(root),
           m_sceneDirectory(sceneDirectory),
           m_border(border),
-          m_clock(std::make_shared<ManualClock>()) {}
+          m_clock(std::make_shared<ManualClock>(kWallStart)) {}
 
     ~Simulation() {
         m_coordinator.reset();
@@ -114,10 +119,17 @@ class Simulation {
         try {
             fs::remove_all(m_root);
             fs::create_directories(m_root);
+            // Retention off (as before it was simulated), or a keep time short enough to act
+            // within a schedule.
+            const double keeps[] = {0, 20, 45};
+            m_keep = keeps[m_random.below(3)];
+            note(absl::StrFormat("retention keeps ended jobs %.0f s", m_keep));
             open(stateDirectory());
-            for (int i = 0; i < 3; ++i) registerWorker();
+            m_workers.resize(3);
+            for (SimWorker& worker : m_workers) registerWorker(worker);
             submit();
             for (int step = 0; step < m_options.steps; ++step) {
+                m_submittedThisStep.clear();
                 randomStep();
                 if (m_crashTaken) crashAtCopiedPoint();
                 checkInvariants();
@@ -153,6 +165,9 @@ class Simulation {
         // running again (the uncommitted step a restart may lose).
         bool endUncommitted = false;
         bool imageChecked = false;
+        std::vector<std::string> blobs;  // its bundle's files (SHA-256)
+        double endedAt = 0;              // wall clock when it was seen to end; 0 while running
+        bool pruned = false;             // removed by retention
     };
     struct HeldLease {
         v1::AcquireWorkResponse lease;
@@ -164,15 +179,42 @@ class Simulation {
         // The last result delivered, to deliver again (a duplicate or a late retry).
         std::optional<std::pair<v1::ResultChunk, std::string>> lastResult;
         bool drained = false;  // a client drained it: no new leases
+        double lastCall = 0;   // wall clock of its last call the coordinator answered
     };
+    // Where the coordinator dies inside a submission: after the client uploaded the blobs but
+    // before it submitted, or right after the job's record or its directory was written.
+    enum class SubmitCrash { None, AfterUpload, AfterRecord, AfterDirectory };
+    // Retention removes what expired at most one prune interval (a minute) plus one step (the
+    // longest advance is 15 s) after it expired.
+    static constexpr double kRetentionLag = 60 + 16;
+    static constexpr double kWallStart = 1.7e9;  // the manual clock's wall time at t=0
 
     [[noreturn]] void violate(const std::string& what) { throw Violation{what}; }
     void note(const std::string& line) {
-        for (const char* event :
-             {"RESULT_MERGED", "RESULT_DISCARDED", "RESULT_RECORDED", "crash and restart",
-              "graceful stop", "crash inside the step", "crashes", "cancel job", "late for",
-              "duplicate for", "disk full", "pause job", "resume job", "drain worker",
-              "end the drain of worker"})
+        for (const char* event : {"RESULT_MERGED",
+                                  "RESULT_DISCARDED",
+                                  "RESULT_RECORDED",
+                                  "crash and restart",
+                                  "graceful stop",
+                                  "crash inside the step",
+                                  "crashes",
+                                  "cancel job",
+                                  "late for",
+                                  "duplicate for",
+                                  "disk full",
+                                  "pause job",
+                                  "resume job",
+                                  "drain worker",
+                                  "end the drain of worker",
+                                  "removed by retention",
+                                  "was forgotten",
+                                  "submit refused",
+                                  "register refused",
+                                  "after the upload",
+                                  "after the job's record",
+                                  "after the job's directory",
+                                  "not in the store",
+                                  "result for removed job"})
             if (line.find(event) != std::string::npos) ++g_coverage[event];
         m_trace.push_back(absl::StrFormat("t=%.1f %s", m_clock->monotonicSeconds(), line));
     }
@@ -185,7 +227,7 @@ class Simulation {
         options.leaseSeconds = 10;
         options.checkpointIntervalSeconds = 5;
         options.maxAttempts = 4;
-        options.keepFinishedSeconds = 0;
+        options.keepFinishedSeconds = m_keep;
         options.maxMemoryBytes = uint64_t(1) << 30;
         m_coordinator = std::make_unique<Coordinator>(options, m_clock);
         m_coordinator->setDurableWriteHooks({[this] {
@@ -197,21 +239,99 @@ class Simulation {
         for (auto& [id, job] : m_jobs) job.checkpointsSeen = 0;
     }
 
-    void registerWorker() {
+    // Registers the worker (again). On a full disk the coordinator refuses, leaving no worker
+    // behind, and the worker stays unregistered (id 0) and tries again at its next step.
+    void registerWorker(SimWorker& worker) {
+        worker = SimWorker();
+        const size_t known = m_coordinator->listWorkers(true).size();
         v1::RegisterRequest request;
-        request.set_name("sim" + std::to_string(m_workers.size()));
-        SimWorker worker;
-        worker.id = m_coordinator->registerWorker(request);
-        m_workers.push_back(std::move(worker));
+        request.set_name("sim");
+        try {
+            worker.id = m_coordinator->registerWorker(request);
+        } catch (const StorageError& e) {
+            if (!m_diskFull) throw;
+            note(absl::StrFormat("register refused: %s", e.what()));
+            if (m_coordinator->listWorkers(true).size() != known)
+                violate("a refused registration left a worker behind");
+            return;
+        }
+        if (m_diskFull) violate(absl::StrFormat("worker %u registered on a full disk", worker.id));
+        m_registeredWorkers.insert(worker.id);
+        worker.lastCall = m_clock->wallSeconds();
+        note(absl::StrFormat("worker %u registered", worker.id));
     }
 
-    void submit() {
-        farm::Bundle bundle = farm::gatherBundle((m_sceneDirectory / "s.xml").string());
+    // The coordinator does not know the worker: only retention may forget a worker, after the
+    // keep time without a call. The worker registers again, as a restarted one.
+    void forgotten(SimWorker& worker) {
+        if (!(m_keep > 0) || worker.lastCall + m_keep > m_clock->wallSeconds())
+            violate(absl::StrFormat("worker %u unknown %.1f s after its last call (keep %.0f s)",
+                                    worker.id, m_clock->wallSeconds() - worker.lastCall, m_keep));
+        note(absl::StrFormat("worker %u was forgotten; it registers again", worker.id));
+        registerWorker(worker);
+    }
+
+    // The job's status, or nothing when the coordinator does not list it.
+    std::optional<v1::JobStatus> findJob(uint64_t jobId) {
+        try {
+            return m_coordinator->listJobs(jobId).at(0);
+        } catch (const FarmError& e) {
+            if (e.kind != FarmError::Kind::NotFound) throw;
+            return std::nullopt;
+        }
+    }
+
+    // The coordinator no longer lists the job: only retention may remove a job, an ended one,
+    // after its keep time.
+    void jobRemoved(SimJob& job) {
+        const double now = m_clock->wallSeconds();
+        if (job.state == v1::JOB_STATE_RUNNING)
+            violate(absl::StrFormat("running job %u vanished", job.id));
+        if (!(m_keep > 0))
+            violate(absl::StrFormat("job %u removed, but retention keeps everything", job.id));
+        if (now < job.endedAt + m_keep)
+            violate(absl::StrFormat("job %u removed %.1f s after it ended (keep %.0f s)", job.id,
+                                    now - job.endedAt, m_keep));
+        job.pruned = true;
+        note(absl::StrFormat("job %u removed by retention", job.id));
+    }
+
+    void submit(SubmitCrash crash = SubmitCrash::None) {
+        // Three scenes that share the mesh and differ in the scene file, so retention has blobs
+        // of one job only and blobs of several.
+        const std::string scene = "s" + std::to_string(m_random.below(3)) + ".xml";
+        farm::Bundle bundle = farm::gatherBundle((m_sceneDirectory / scene).string());
+        const double now = m_clock->wallSeconds();
+        std::vector<std::string> blobs;
+        for (const auto& file : bundle.files) blobs.push_back(file.sha256);
+        // As the CLI does: it asks which blobs are missing (which marks them as about to be
+        // used), then uploads those.
+        m_coordinator->touchBlobs(blobs);
+        for (const std::string& sha : blobs) m_blobTouchedAt[sha] = now;
         for (const auto& file : bundle.files) {
             if (m_coordinator->blobs().has(file.sha256)) continue;
             BlobStore::Upload blob(m_coordinator->blobs(), file.sha256);
             blob.append(farm::readFile(file.sourcePath));
             blob.commit();
+            // A blob's age is its file's time: the simulated clock's, so that retention decides
+            // the same on every run.
+            fs::last_write_time(m_coordinator->blobs().pathOf(file.sha256),
+                                std::chrono::time_point_cast<fs::file_time_type::duration>(
+                                    std::chrono::file_clock::from_sys(std::chrono::sys_seconds(
+                                        std::chrono::seconds(int64_t(now))))));
+            m_blobStoredAt[file.sha256] = now;
+        }
+        if (crash == SubmitCrash::AfterUpload) {
+            note("coordinator crash after the upload, before the submission");
+            crashCoordinator();
+            return;
+        }
+        if (crash != SubmitCrash::None) {
+            // Its first durable write is the job's record, the second its directory.
+            m_crashCountdown = crash == SubmitCrash::AfterRecord ? 0 : 1;
+            note(crash == SubmitCrash::AfterRecord
+                     ? "a crash is due right after the job's record is written"
+                     : "a crash is due right after the job's directory is written");
         }
         v1::SubmitJobRequest request;
         *request.mutable_bundle() = farm::toProto(bundle);
@@ -222,9 +342,24 @@ class Simulation {
         request.mutable_settings()->set_tile_size(4 + 2 * m_random.below(2));
         request.mutable_settings()->set_priority(int(m_random.below(3)));
         request.mutable_settings()->set_seed(7);
-        const v1::JobStatus status = m_coordinator->submit(request);
+        const size_t jobsBefore = m_coordinator->listJobs(0).size();
+        v1::JobStatus status;
+        try {
+            status = m_coordinator->submit(request);
+        } catch (const FarmError& e) {
+            if (!m_diskFull || e.kind != FarmError::Kind::ResourceExhausted) throw;
+            note(absl::StrFormat("submit refused: %s", e.what()));
+            if (m_coordinator->listJobs(0).size() != jobsBefore)
+                violate("a refused submission left a job behind");
+            return;
+        }
+        if (m_diskFull) violate(absl::StrFormat("job %u accepted on a full disk", status.job_id()));
+        // The submission consumed the marks of its blobs.
+        for (const std::string& sha : blobs) m_blobTouchedAt.erase(sha);
         SimJob job;
         job.id = status.job_id();
+        job.blobs = blobs;
+        m_submittedThisStep.insert(job.id);
         const v1::JobSettings& settings = status.settings();
         job.grid =
             farm::JobGrid(int(status.width()), int(status.height()), int(settings.tile_size()),
@@ -251,8 +386,15 @@ class Simulation {
     }
 
     void acquire(SimWorker& worker) {
-        const v1::AcquireWorkResponse lease =
-            m_coordinator->acquire(worker.id, std::chrono::steady_clock::now());
+        v1::AcquireWorkResponse lease;
+        try {
+            lease = m_coordinator->acquire(worker.id, std::chrono::steady_clock::now());
+        } catch (const FarmError& e) {
+            if (e.kind != FarmError::Kind::UnknownWorker) throw;
+            forgotten(worker);
+            return;
+        }
+        worker.lastCall = m_clock->wallSeconds();
         if (!lease.has_work()) {
             note(absl::StrFormat("worker %u: no work", worker.id));
             return;
@@ -327,9 +469,23 @@ class Simulation {
 
     void report(SimWorker& worker, const v1::ResultChunk& header, const std::string& compressed,
                 const std::string& kind) {
-        const v1::ResultDisposition disposition = m_coordinator->report(header, compressed);
         const uint64_t jobId = header.job_id();
         const uint32_t unit = header.unit_index();
+        v1::ResultDisposition disposition;
+        try {
+            disposition = m_coordinator->report(header, compressed);
+        } catch (const FarmError& e) {
+            if (e.kind == FarmError::Kind::UnknownWorker) {
+                forgotten(worker);
+                return;
+            }
+            // A result for a job retention removed meanwhile: the worker drops it.
+            if (e.kind != FarmError::Kind::NotFound || !m_jobs.at(jobId).pruned) throw;
+            note(
+                absl::StrFormat("worker %u: %s result for removed job %u", worker.id, kind, jobId));
+            return;
+        }
+        worker.lastCall = m_clock->wallSeconds();
         note(absl::StrFormat("worker %u: %s for job %u unit %u (lease %u): %s", worker.id, kind,
                              jobId, unit, header.lease_id(),
                              v1::ResultDisposition_Name(disposition)));
@@ -354,7 +510,11 @@ class Simulation {
             unit.set_lease_token(held.lease.lease_token());
         }
         const v1::HeartbeatResponse response = m_coordinator->heartbeat(request);
-        if (response.unknown_worker()) violate(absl::StrFormat("worker %u unknown", worker.id));
+        if (response.unknown_worker()) {
+            forgotten(worker);
+            return;
+        }
+        worker.lastCall = m_clock->wallSeconds();
         std::set<uint64_t> dropped(response.drop_lease_ids().begin(),
                                    response.drop_lease_ids().end());
         note(absl::StrFormat("worker %u: heartbeat for %u leases, %u dropped", worker.id,
@@ -378,6 +538,16 @@ class Simulation {
         note(absl::StrFormat("clock +%.1f s, tick", seconds));
     }
 
+    // The state directory as a crash leaves it on disk, blobs with their times (retention reads
+    // a blob's age from its file's time, which a copy would reset).
+    static void copyStateDirectory(const fs::path& from, const fs::path& to) {
+        fs::copy(from, to, fs::copy_options::recursive);
+        for (const auto& entry : fs::recursive_directory_iterator(from / "blobs"))
+            if (entry.is_regular_file())
+                fs::last_write_time(to / fs::relative(entry.path(), from),
+                                    fs::last_write_time(entry.path()));
+    }
+
     // The coordinator process dies between two steps: its state directory as it is on disk is
     // what the next process starts from. (The old object then stops, writing only to its own,
     // abandoned directory.)
@@ -385,7 +555,7 @@ class Simulation {
         m_coordinator->setDurableWriteHooks({});
         const fs::path from = stateDirectory();
         ++m_generation;
-        fs::copy(from, stateDirectory(), fs::copy_options::recursive);
+        copyStateDirectory(from, stateDirectory());
         fs::remove(stateDirectory() / "lock");
         m_coordinator.reset();
         note("coordinator crash and restart");
@@ -399,8 +569,7 @@ class Simulation {
     // next process starts from the copy.
     void durableWrite() {
         if (m_crashCountdown < 0 || m_crashTaken || m_crashCountdown-- > 0) return;
-        fs::copy(stateDirectory(), m_root / ("state" + std::to_string(m_generation + 1)),
-                 fs::copy_options::recursive);
+        copyStateDirectory(stateDirectory(), m_root / ("state" + std::to_string(m_generation + 1)));
         m_crashTaken = true;
     }
 
@@ -431,7 +600,26 @@ class Simulation {
         std::map<uint64_t, uint32_t> mergedBefore;
         for (auto& [id, job] : m_jobs) mergedBefore[id] = uint32_t(job.merged.size());
         open(stateDirectory());
+        for (auto it = m_jobs.begin(); it != m_jobs.end();) {
+            SimJob& job = it->second;
+            const std::optional<v1::JobStatus> found = job.pruned ? std::nullopt : findJob(job.id);
+            if (!found && !job.pruned) {
+                if (m_submittedThisStep.count(job.id)) {
+                    // Its submission was the uncommitted step: the client got no answer.
+                    note(
+                        absl::StrFormat("job %u, submitted in the step of the crash, is not in "
+                                        "the store",
+                                        job.id));
+                    it = m_jobs.erase(it);
+                    continue;
+                }
+                // Retention may have removed it in the step of the crash.
+                jobRemoved(job);
+            }
+            ++it;
+        }
         for (auto& [id, job] : m_jobs) {
+            if (job.pruned) continue;
             const v1::JobStatus status = m_coordinator->listJobs(id).at(0);
             // An end the store never got: the job runs again from its last checkpoint (its film
             // was released when it ended, so nothing later was saved).
@@ -439,6 +627,7 @@ class Simulation {
             if (endLost) {
                 job.state = v1::JOB_STATE_RUNNING;
                 job.cancelRequested = false;
+                job.endedAt = 0;
             }
             job.endUncommitted = false;
             if (job.state != v1::JOB_STATE_RUNNING && status.state() != job.state)
@@ -471,6 +660,12 @@ class Simulation {
     void randomStep() {
         const uint32_t roll = m_random.below(100);
         SimWorker& worker = m_workers[m_random.below(uint32_t(m_workers.size()))];
+        // A worker whose registration was refused (a full disk) tries again before anything else.
+        const bool workerCall = roll < 66 || (roll >= 68 && roll < 70);
+        if (workerCall && worker.id == 0) {
+            registerWorker(worker);
+            return;
+        }
         if (roll < 22) {
             if (worker.leases.size() < 2) acquire(worker);
         } else if (roll < 44) {
@@ -490,8 +685,14 @@ class Simulation {
         } else if (roll < 68) {
             togglePause();
         } else if (roll < 70) {
-            const v1::WorkerInfo info =
-                m_coordinator->setWorkerDraining(worker.id, !worker.drained);
+            v1::WorkerInfo info;
+            try {
+                info = m_coordinator->setWorkerDraining(worker.id, !worker.drained);
+            } catch (const FarmError& e) {
+                if (e.kind != FarmError::Kind::UnknownWorker) throw;
+                forgotten(worker);
+                return;
+            }
             worker.drained = !worker.drained;
             note(absl::StrFormat("%s worker %u (%u leases)",
                                  worker.drained ? "drain" : "end the drain of", worker.id,
@@ -507,9 +708,7 @@ class Simulation {
         } else if (roll < 91) {
             // A worker crash: its leases are gone with it; it comes back under a new id.
             note(absl::StrFormat("worker %u crashes", worker.id));
-            worker = SimWorker();
-            v1::RegisterRequest request;
-            worker.id = m_coordinator->registerWorker(request);
+            registerWorker(worker);
         } else if (roll < 93) {
             std::vector<uint64_t> running;
             for (const auto& [id, job] : m_jobs)
@@ -529,7 +728,14 @@ class Simulation {
                 }
             }
         } else if (roll < 95) {
-            if (m_jobs.size() < 4) submit();
+            size_t listed = 0;
+            for (const auto& [id, job] : m_jobs) listed += !job.pruned;
+            if (listed < 4) {
+                // Some submissions are cut short by a coordinator crash.
+                const SubmitCrash crashes[] = {SubmitCrash::AfterUpload, SubmitCrash::AfterRecord,
+                                               SubmitCrash::AfterDirectory};
+                submit(m_random.chance(30) ? crashes[m_random.below(3)] : SubmitCrash::None);
+            }
         } else if (roll < 97) {
             crashCoordinator();
         } else if (roll < 98) {
@@ -564,13 +770,21 @@ class Simulation {
         }
     }
 
-    void checkInvariants() {
+    // `storage`: also what is on disk (checkStorage), which only a submission, a registration, a
+    // crash or the clock (retention) changes.
+    void checkInvariants(bool storage = true) {
         std::string problems;
         m_coordinator->inspect(
             [&](const LeaseScheduler& scheduler) { problems = scheduler.checkConsistency(); });
         if (!problems.empty()) violate("lease tables: " + problems);
         for (auto& [id, job] : m_jobs) {
-            const v1::JobStatus status = m_coordinator->listJobs(id).at(0);
+            if (job.pruned) continue;
+            const std::optional<v1::JobStatus> found = findJob(id);
+            if (!found) {
+                jobRemoved(job);
+                continue;
+            }
+            const v1::JobStatus& status = *found;
             if (job.state != v1::JOB_STATE_RUNNING && status.state() != job.state)
                 violate(absl::StrFormat("job %u went from %s to %s", id,
                                         v1::JobState_Name(job.state),
@@ -600,8 +814,13 @@ class Simulation {
             if (job.state == v1::JOB_STATE_RUNNING && status.state() != job.state) {
                 ++g_coverage[std::string("job ") + v1::JobState_Name(status.state())];
                 if (m_diskFull) job.endUncommitted = true;
+                job.endedAt = m_clock->wallSeconds();
             }
             job.state = status.state();
+            if (job.state != v1::JOB_STATE_RUNNING && m_keep > 0 &&
+                m_clock->wallSeconds() >= job.endedAt + m_keep + kRetentionLag)
+                violate(absl::StrFormat("job %u ended %.1f s ago and is still kept (keep %.0f s)",
+                                        id, m_clock->wallSeconds() - job.endedAt, m_keep));
             if (job.state == v1::JOB_STATE_DONE && !job.imageChecked) {
                 if (job.merged.size() != job.grid.unitCount())
                     violate(absl::StrFormat("job %u done with %u of %u units", id,
@@ -618,6 +837,55 @@ class Simulation {
                 status.error().find("times (the limit)") == std::string::npos)
                 violate(absl::StrFormat("job %u failed: %s", id, status.error()));
         }
+        if (storage) checkStorage();
+    }
+
+    // What is stored matches what the coordinator lists: nothing half-written survives a refused
+    // or interrupted submission or registration, and retention removes a job with its directory
+    // and its blobs but never what a listed job uses.
+    void checkStorage() {
+        std::set<uint64_t> listed;
+        std::set<std::string> referenced;
+        for (const auto& [id, job] : m_jobs)
+            if (!job.pruned) {
+                listed.insert(id);
+                referenced.insert(job.blobs.begin(), job.blobs.end());
+            }
+        if (m_coordinator->listJobs(0).size() != listed.size())
+            violate(absl::StrFormat("the coordinator lists %u jobs, %u were submitted",
+                                    m_coordinator->listJobs(0).size(), listed.size()));
+        for (const v1::WorkerInfo& info : m_coordinator->listWorkers(true))
+            if (!m_registeredWorkers.count(info.worker_id()))
+                violate(absl::StrFormat("worker %u is listed, but no registration returned it",
+                                        info.worker_id()));
+        const fs::path jobs = stateDirectory() / "jobs";
+        for (const auto& entry : fs::directory_iterator(jobs))
+            if (!listed.count(std::strtoull(entry.path().filename().c_str(), nullptr, 10)))
+                violate(absl::StrFormat("%s is left over: the coordinator lists no such job",
+                                        entry.path().string()));
+        for (uint64_t id : listed)
+            if (m_jobs.at(id).state == v1::JOB_STATE_RUNNING &&
+                !fs::is_directory(jobs / std::to_string(id)))
+                violate(absl::StrFormat("running job %u has no directory for its checkpoints", id));
+        const double now = m_clock->wallSeconds();
+        for (const std::string& sha : referenced) m_blobReferencedAt[sha] = now;
+        std::set<std::string> stored;
+        for (const BlobStore::StoredBlob& blob : m_coordinator->blobs().list()) {
+            stored.insert(blob.sha256);
+            if (referenced.count(blob.sha256) || !(m_keep > 0)) continue;
+            // It may go once no job uses it and it was neither stored nor asked for within the
+            // keep time.
+            double lastUse = m_blobStoredAt[blob.sha256];
+            if (auto it = m_blobTouchedAt.find(blob.sha256); it != m_blobTouchedAt.end())
+                lastUse = std::max(lastUse, it->second);
+            const double unusedSince = std::max(lastUse + m_keep, m_blobReferencedAt[blob.sha256]);
+            if (now >= unusedSince + kRetentionLag)
+                violate(absl::StrFormat("blob %s, which may go since t=%.1f, is still stored",
+                                        blob.sha256.substr(0, 12), unusedSince - kWallStart));
+        }
+        for (const std::string& sha : referenced)
+            if (!stored.count(sha))
+                violate(absl::StrFormat("blob %s of a listed job was removed", sha.substr(0, 12)));
     }
 
     // Everything goes well from here on: every job must end, within a bound.
@@ -633,21 +901,31 @@ class Simulation {
                 job.paused = false;
             }
         for (SimWorker& worker : m_workers)
+            if (worker.id == 0) registerWorker(worker);
+        for (SimWorker& worker : m_workers)
             if (worker.drained) {
-                m_coordinator->setWorkerDraining(worker.id, false);
+                try {
+                    m_coordinator->setWorkerDraining(worker.id, false);
+                } catch (const FarmError& e) {
+                    if (e.kind != FarmError::Kind::UnknownWorker) throw;
+                    forgotten(worker);
+                }
                 worker.drained = false;
             }
         for (int round = 0; round < 5000; ++round) {
             bool running = false;
             for (const auto& [id, job] : m_jobs) running |= job.state == v1::JOB_STATE_RUNNING;
-            if (!running) return;
+            if (!running) {
+                checkStorage();
+                return;
+            }
             SimWorker& worker = m_workers[round % m_workers.size()];
             if (!worker.leases.empty())
                 deliver(worker, 0, false, false);
             else
                 acquire(worker);
             if (round % 8 == 7) advance(1);
-            checkInvariants();
+            checkInvariants(round % 8 == 7);
         }
         violate("the jobs did not end after the schedule: a hang");
     }
@@ -662,8 +940,15 @@ class Simulation {
     int m_crashCountdown = -1;  // durable writes before a crash inside a step; -1: none due
     bool m_crashTaken = false;
     bool m_diskFull = false;  // checkpoint, job-end and attempt writes fail
+    double m_keep = 0;        // retention's keep time for ended jobs; 0 keeps everything
     std::map<uint64_t, SimJob> m_jobs;
     std::vector<SimWorker> m_workers;
+    std::set<uint64_t> m_registeredWorkers;  // every id a registration returned
+    std::set<uint64_t> m_submittedThisStep;
+    // Blobs by SHA-256: when the client stored each, and when it last asked for each without
+    // a submission that consumed the mark (wall clock).
+    std::map<std::string, double> m_blobStoredAt, m_blobTouchedAt;
+    std::map<std::string, double> m_blobReferencedAt;  // when a listed job last used it
     std::vector<std::string> m_trace;
 };
 
@@ -712,16 +997,20 @@ int main(int argc, char** argv) {
     fs::create_directories(scene);
     fs::copy_file(fs::path(ALPHORN_SOURCE_DIR) / "scenes/meshes/triangle.obj",
                   scene / "triangle.obj");
-    std::ofstream(scene / "s.xml") << R"(<scene>
+    for (int variant = 0; variant < 3; ++variant)
+        std::ofstream(scene / ("s" + std::to_string(variant) + ".xml"))
+            << "<!-- variant " << variant << " -->\n"
+            << R"(<scene>
   <integrator type="normals"/>
   <camera type="perspective">
     <transform name="toWorld"><lookat origin="0, 3, 0.5" target="0, 0, 0" up="0, 0, 1"/></transform>
     <integer name="width" value="10"/><integer name="height" value="8"/>
   </camera>
   <mesh type="obj"><string name="filename" value="triangle.obj"/></mesh>
+  <emitter type="point"><point name="position" value="0, 3, 2"/><color name="power" value="1"/></emitter>
 </scene>)";
     const int border =
-        -makeUnitBlock(*loadScene((scene / "s.xml").string()), Tile{0, 0, 1, 1}).x0();
+        -makeUnitBlock(*loadScene((scene / "s0.xml").string()), Tile{0, 0, 1, 1}).x0();
     setLogSink(collectLog);
     int failures = 0;
     for (uint64_t seed = options.firstSeed; seed < options.firstSeed + options.seeds; ++seed) {

@@ -4,7 +4,7 @@
 // corpus). Inputs whose <string> values contain '/' are skipped: they could name files outside
 // that directory (/dev/zero, large system files) and make the run depend on the machine.
 #include "common/core/error.h"
-#include "common/render/image_io.h"
+#include "common/core/image.h"
 #include "common/scene/parser.h"
 #include "fuzz/fuzz_support.h"
 

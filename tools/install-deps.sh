@@ -12,10 +12,12 @@ PACKAGES=(
   clang-14 libclang-rt-14-dev
   libcpp-httplib-dev prometheus-cpp-dev
 )
-# Test and benchmark tools: a real Prometheus server scrapes a test farm; charts are drawn with
-# matplotlib.
+# Test and benchmark tools: a real Prometheus server scrapes a test farm; headless Chromium
+# (through Selenium) drives the web dashboard; charts are drawn with matplotlib.
 if [ "${1:-}" != "--build" ]; then
-  PACKAGES+=(prometheus python3-matplotlib python3-numpy)
+  PACKAGES+=(prometheus chromium chromium-driver python3-selenium python3-matplotlib python3-numpy)
+  # docs/operations.md's backup steps (its test runs them).
+  PACKAGES+=(sqlite3 rsync)
 fi
 missing=()
 for p in "${PACKAGES[@]}"; do

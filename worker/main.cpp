@@ -1,4 +1,5 @@
 // alphorn-worker: renders units leased from an alphorn-coordinator. See docs/operations.md.
+#include "common/farm/files.h"
 #include "common/farm/http_server.h"
 #include "common/farm/log.h"
 #include "common/farm/metrics.h"
@@ -10,7 +11,6 @@
 
 #include <csignal>
 #include <cstdio>
-#include <fstream>
 
 using namespace alphorn;
 
@@ -93,8 +93,7 @@ int main(int argc, char** argv) {
                  farm::field("tls", httpServer->tls() ? "on" : "off"),
                  farm::field("anonymous_metrics", anonymousMetrics ? "yes" : "no")});
             if (!httpPortFile.empty()) {
-                std::ofstream(httpPortFile + ".tmp") << httpServer->port() << "\n";
-                std::rename((httpPortFile + ".tmp").c_str(), httpPortFile.c_str());
+                farm::writeFileAtomically(httpPortFile, std::to_string(httpServer->port()) + "\n");
             }
         }
         // SIGTERM (docker stop, systemctl stop, a Kubernetes pod's end) drains: the unit in

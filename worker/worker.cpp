@@ -2,6 +2,7 @@
 
 #include "common/core/error.h"
 #include "common/farm/bundle.h"
+#include "common/farm/chunks.h"
 #include "common/farm/convert.h"
 #include "common/farm/error_reason.h"
 #include "common/farm/film_codec.h"
@@ -10,7 +11,7 @@
 #include "common/farm/metrics.h"
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
-#include "common/photon/photon_pass.h"
+#include "common/integrator/photon_pass.h"
 #include "common/scene/scene.h"
 
 #include <absl/strings/str_replace.h>
@@ -408,22 +409,16 @@ bool Worker::deliver(Result& result) {
         auto ctx = context(timeout);
         v1::ReportResultResponse response;
         auto writer = m_stub->ReportResult(ctx.get(), &response);
-        size_t offset = 0;
-        bool first = true;
-        bool writeFailed = false;
-        do {
-            v1::ResultChunk chunk;
-            if (first) chunk = result.header;
-            first = false;
-            const size_t n = std::min(farm::kChunkBytes, result.compressed.size() - offset);
-            chunk.set_data(result.compressed.substr(offset, n));
-            offset += n;
-            if (!writer->Write(chunk)) {
-                writeFailed = true;
-                break;
-            }
-        } while (offset < result.compressed.size());
-        if (!writeFailed) writer->WritesDone();
+        const bool written = farm::sendChunks(
+            result.compressed,
+            [&](std::string_view data, bool first, bool) {
+                v1::ResultChunk chunk;
+                if (first) chunk = result.header;
+                chunk.set_data(std::string(data));
+                return writer->Write(chunk);
+            },
+            farm::kChunkBytes);
+        if (written) writer->WritesDone();
         grpc::Status status = writer->Finish();
         if (status.ok()) {
             farm::WorkerMetrics::resultDelivered(deliveryOf(response.disposition()),

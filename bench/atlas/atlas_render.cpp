@@ -20,7 +20,7 @@
 // Relative RMSE: sqrt(mean over pixels of (Y - Y_ref)²) / mean over pixels of Y_ref, with Y the
 // Rec. 709 luminance. Dividing by the mean rather than per pixel keeps near-black pixels from
 // dominating, and makes the figure comparable across scenes of different brightness.
-#include "common/render/image_io.h"
+#include "common/core/image.h"
 #include "common/render/local_render.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"

@@ -8,8 +8,9 @@ against a long reference at a ladder of pass counts, against CPU and wall time.
 Writes into --out: atlas.csv (one row per render), references.csv (each scene's reference and
 its own noise), slopes.csv (fitted and theoretical slope per series), summary.md (the tables of
 docs/accuracy.md) and one chart per scene, SCENE.png. --quick runs a seconds-long slice (the
-Cornell box at 32 x 32, two integrators) and --check then asserts that the pipeline worked: rows
-present, errors finite and falling, charts written (the CTest entry bench.atlas_slice).
+Cornell box at 32 x 32: path_mis, the progressive photon mapper, bdpt and vcm) and --check then
+asserts that the pipeline worked: every series present, errors finite and falling, predicted
+errors filled, charts written (the CTest entry bench.atlas_slice).
 
 Run it with Debian's /usr/bin/python3, which has matplotlib (tools/install-deps.sh).
 """
@@ -121,6 +122,28 @@ def volume_series(photons, surface_radius, volume_radius, k, alpha=0.5, delta_li
     return out
 
 
+def bidirectional_series(vcm_params=(), merging_only_paths=False):
+    """bdpt and vcm (surfaces only), each with twice the budget: a pass costs about 4x a
+    path_mis pass, and the doubled budget gives their ladders enough points to fit a slope.
+    vcm runs with its defaults (merge radius: scene diagonal / 500, alpha 0.75) unless the scene
+    has its own vcm variant. `merging_only_paths`: the scene has light that only merging reaches
+    (a point light's caustic seen through glass), which bdpt misses at any time and vcm gathers
+    at the Knaus-Zwicker rate; elsewhere vcm's merging weight shrinks with the radius and both
+    converge as Monte Carlo does."""
+    vcm_label = "vcm" + "".join(" " + p.split(":")[1] for p in vcm_params)
+    if merging_only_paths:
+        bdpt_theory, bdpt_why = 0.0, "misses light only merging reaches (point light through glass)"
+        vcm_theory, vcm_why = progressive_slope(0.75), "Knaus-Zwicker, alpha 0.75 (merged paths)"
+    else:
+        bdpt_theory, bdpt_why = -0.5, MC
+        vcm_theory, vcm_why = -0.5, "merging's weight vanishes as the radius shrinks: Monte Carlo"
+    out = [series("bdpt", "bdpt", [], bdpt_theory, bdpt_why),
+           series(vcm_label, "vcm", list(vcm_params), vcm_theory, vcm_why)]
+    for s in out:
+        s["budget_factor"] = 2
+    return out
+
+
 PPM_CAUSTIC = ("photonmapper", ["int:photonCount=200000", "float:surfacePhotonRadius=0.04",
                                 "bool:progressive=true", "float:alpha=0.5"])
 
@@ -132,26 +155,34 @@ SCENES = {
         title="Cornell box (mirror and glass spheres), 128 x 128",
         path="scenes/cbox/cbox.xml", size="128x128",
         reference=("path_mis", []),
-        series=surface_series(100000, 0.05, 50)),
+        series=surface_series(100000, 0.05, 50) +
+        # cbox_vcm.xml's merge radius.
+        bidirectional_series(["float:radius=0.01"])),
+    "cbox_glossy": dict(
+        title="Glossy Cornell box (glossy floor, near-specular and rough spheres), 128 x 128",
+        path="scenes/cbox/cbox_glossy.xml", size="128x128",
+        reference=("path_mis", []),
+        series=surface_series(100000, 0.05, 50) + bidirectional_series()),
     "caustic": dict(
         title="Caustic of a glass sphere under a small area light, 192 x 144",
         path="scenes/caustic/caustic.xml", size="192x144",
         # The caustic is bright against the mean and the reference's noise falls only as
         # N^(-1/4) (progressive, alpha 1/2): it needs a longer run than the others.
         reference=PPM_CAUSTIC, reference_budget_factor=4,
-        series=surface_series(200000, 0.04, 50)),
+        series=surface_series(200000, 0.04, 50) + bidirectional_series()),
     "sds": dict(
         title="Specular-diffuse-specular: point-light caustic seen through glass, 192 x 144",
         path="scenes/sds/sds.xml", size="192x144",
         reference=PPM_CAUSTIC,
         series=surface_series(100000, 0.04, 50, delta_lights=True, path_mis_theory=0.0,
                               path_mis_why="cannot connect a diffuse vertex to a point light "
-                                           "through glass: misses the caustic")),
+                                           "through glass: misses the caustic") +
+        bidirectional_series(merging_only_paths=True)),
     "veach": dict(
         title="Veach's MIS scene (glossy plates, four lights, a point light), 192 x 128",
         path="scenes/veach/veach_mis.xml", size="192x128",
         reference=("path_mis", []),
-        series=surface_series(100000, 0.05, 50, delta_lights=True)),
+        series=surface_series(100000, 0.05, 50, delta_lights=True) + bidirectional_series()),
     "spotlight_fog": dict(
         title="Spotlight in homogeneous fog, 160 x 90",
         path="scenes/seed/spotlight_fog.xml", size="160x90",
@@ -191,7 +222,8 @@ QUICK_SCENES = {
         path="scenes/cbox/cbox.xml", size="32x32",
         reference=("path_mis", []),
         series=[s for s in surface_series(20000, 0.05, 50)
-                if s["label"] == "path_mis" or s["label"].startswith("photonmapper progressive")]),
+                if s["label"] == "path_mis" or s["label"].startswith("photonmapper progressive")] +
+        bidirectional_series(["float:radius=0.01"])),
 }
 
 CSV_FIELDS = ["scene", "integrator", "passes", "wall_seconds", "cpu_seconds", "relative_rmse",
@@ -285,6 +317,7 @@ def chart(path, name, scene, rows_by_label, series_by_label, slopes, reference):
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for ax, key, xlabel in ((axes[0], "cpu_seconds", "CPU time (seconds, all threads)"),
                             (axes[1], "wall_seconds", "wall time (seconds, 2 cores, shared)")):
+        any_predicted = False
         for i, (label, rows) in enumerate(rows_by_label.items()):
             colour = colours[i % len(colours)]
             x = [float(r[key]) for r in rows]
@@ -299,9 +332,15 @@ def chart(path, name, scene, rows_by_label, series_by_label, slopes, reference):
                          if r.get("predicted_relative_rmse")]
             if predicted:
                 ax.loglog([p[0] for p in predicted], [p[1] for p in predicted], ":",
-                          color=colour, label="%s: predicted by the film" % label)
+                          color=colour, linewidth=1.5)
+                any_predicted = True
         ax.axhline(reference["relative_noise"], color="grey", linestyle="--",
                    label="reference's own noise (%.3g)" % reference["relative_noise"])
+        if any_predicted:
+            # One legend entry for all the dotted lines: a second entry per series would double
+            # a legend that already names every series.
+            ax.plot([], [], ":", color="black", linewidth=1.5,
+                    label="dotted, same colour: the film's own predicted error")
         ax.set_xlabel(xlabel)
         label_log_ticks(ax)
         ax.grid(True, which="both", alpha=0.3)
@@ -354,18 +393,118 @@ def summary(scenes, results, references, slopes_rows):
     table = ["| scene | equal CPU time | best there | its error (reference noise removed) | "
              "runner-up | its error (noise removed) | reference noise |",
              "|---|---|---|---|---|---|---|"] + best
-    return "\n".join(table) + "\n\n" + "\n".join(lines) + "\n"
+    return ("\n".join(table) + "\n\n" + "\n".join(lines) + "\n\n" +
+            vcm_comparison(scenes, results, references) + "\n" +
+            prediction_table(scenes, results, references, slopes_rows))
 
 
-def check(out, scenes, results):
-    """The test's assertions: every series has rows, finite positive errors, the error at the
-    last point below 0.7 times the first (every atlas series falls from pass 1), CPU time growing
-    with passes, and every chart exists."""
+# The goals of vcm's equal-time comparison: on every scene within this factor of the best of
+# bdpt, path_mis and the progressive photon mapper; on the Cornell box with its glass sphere at
+# most this fraction of the better of path_mis and the progressive photon mapper.
+VCM_WITHIN_BEST = 1.25
+VCM_CBOX_FRACTION = 0.5
+
+
+def vcm_comparison(scenes, results, references):
+    """vcm against bdpt, path_mis and the progressive photon mapper at the CPU time all four
+    reached, on every scene that has a vcm series."""
+    lines = ["| scene | equal CPU time | vcm | bdpt | path_mis | progressive photon mapper | "
+             "best other | vcm / best other (noise removed) | within %g x |" % VCM_WITHIN_BEST,
+             "|---|---|---|---|---|---|---|---|---|"]
+    cbox_lines = []
+    for name in scenes:
+        by_label = results[name]
+        vcm = next((l for l in by_label if l.startswith("vcm")), None)
+        ppm = next((l for l in by_label if l.startswith("photonmapper progressive")), None)
+        if not vcm or "bdpt" not in by_label or "path_mis" not in by_label or not ppm:
+            continue
+        noise = references[name]["relative_noise"]
+        compared = {"vcm": vcm, "bdpt": "bdpt", "path_mis": "path_mis", "ppm": ppm}
+        common, at = equal_time({key: by_label[label] for key, label in compared.items()})
+        clean = {key: without_noise(e, noise) if e is not None else None for key, e in at.items()}
+        others = [(at[k], k) for k in ("bdpt", "path_mis", "ppm") if at[k] is not None]
+        best_error, best_key = min(others)
+        ratio = at["vcm"] / best_error
+        clean_ratio = (clean["vcm"] / clean[best_key]
+                       if clean["vcm"] is not None and clean[best_key] else None)
+        names = {"bdpt": "bdpt", "path_mis": "path_mis", "ppm": "progressive PM"}
+        cell = lambda k: "%s (%s)" % (fmt(at[k]), fmt(clean[k]))  # noqa: E731
+        lines.append("| %s | %.3g s | %s | %s | %s | %s | %s | %.2f (%s) | %s |" % (
+            name, common, cell("vcm"), cell("bdpt"), cell("path_mis"), cell("ppm"),
+            names[best_key], ratio, fmt(clean_ratio, "%.2f"),
+            "yes" if ratio <= VCM_WITHIN_BEST else "**no**"))
+        if name == "cbox":
+            better = min(at["path_mis"], at["ppm"])
+            cbox_lines.append(
+                "Cornell box with its glass sphere: vcm / better of path_mis and the progressive "
+                "photon mapper = %.4f / %.4f = %.2f (goal at most %g: %s)." % (
+                    at["vcm"], better, at["vcm"] / better, VCM_CBOX_FRACTION,
+                    "met" if at["vcm"] / better <= VCM_CBOX_FRACTION else "**not met**"))
+    if len(lines) == 2:
+        return ""
+    return ("vcm at equal CPU time (relative RMSE; in brackets with the reference's noise removed; "
+            "the time is the smallest of the four series' last CPU times):\n\n" +
+            "\n".join(lines) + "\n\n" + "\n".join(cbox_lines) + "\n")
+
+
+UNBIASED = ("path_mats", "path_mis", "volume_path_mats", "volume_path_mis", "bdpt")
+
+
+def prediction_table(scenes, results, references, slopes_rows):
+    """The film's predicted relative RMSE against the true one (the measured error with the
+    reference's noise taken out in quadrature), over the renders of 2 passes or more whose error
+    is at least twice the reference's noise. Unbiased series are held to +-25%; for the others
+    the estimate sees the noise only, and the table gives the factor it reaches."""
+    lines = ["| scene | integrator | kind | points | predicted / true: median | range | "
+             "at the last pass | verdict |",
+             "|---|---|---|---|---|---|---|---|"]
+    for name in scenes:
+        noise = references[name]["relative_noise"]
+        for label, rows in results[name].items():
+            ratios, has_prediction = [], any(r.get("predicted_relative_rmse") for r in rows)
+            for r in rows:
+                if not r.get("predicted_relative_rmse"):
+                    continue
+                error = float(r["relative_rmse"])
+                if error < 2 * noise:
+                    continue
+                ratios.append(float(r["predicted_relative_rmse"]) / without_noise(error, noise))
+            theory = next(s["theory_slope"] for s in slopes_rows
+                          if s["scene"] == name and s["integrator"] == label)
+            unbiased = label in UNBIASED and theory != 0.0
+            kind = "unbiased" if unbiased else "biased: noise-only estimate"
+            if not ratios:
+                lines.append("| %s | %s | %s | 0 | n/a | n/a | n/a | %s |" % (
+                    name, label, kind, "no point above twice the reference's noise"
+                    if has_prediction else "no prediction in the CSV (a run before the estimate)"))
+                continue
+            ordered = sorted(ratios)
+            median = (ordered[len(ordered) // 2] if len(ordered) % 2 else
+                      0.5 * (ordered[len(ordered) // 2 - 1] + ordered[len(ordered) // 2]))
+            if unbiased:
+                verdict = ("within +-25%" if all(0.75 <= q <= 1.25 for q in ratios) else
+                           "**outside +-25%**")
+            else:
+                verdict = "truth = %.2f x predicted at the last pass" % (1.0 / ratios[-1])
+            lines.append("| %s | %s | %s | %d | %.2f | %.2f-%.2f | %.2f | %s |" % (
+                name, label, kind, len(ratios), median, ordered[0], ordered[-1], ratios[-1],
+                verdict))
+    return ("The film's predicted error against the truth:\n\n" + "\n".join(lines) + "\n")
+
+
+def check(out, catalogue, scenes, results):
+    """The test's assertions: every series of the catalogue has rows (a series whose renders
+    failed is missing), finite positive errors, the error at the last point below 0.7 times the
+    first (every atlas series falls from pass 1), CPU time growing with passes, a predicted
+    error from 2 passes on, and every chart exists."""
     problems = []
     for name in scenes:
         chart_path = os.path.join(out, name + ".png")
         if not (os.path.exists(chart_path) and os.path.getsize(chart_path) > 0):
             problems.append("%s: no chart" % name)
+        for s in catalogue[name]["series"]:
+            if s["label"] not in results[name]:
+                problems.append("%s %s: no rows (its renders failed)" % (name, s["label"]))
         for label, rows in results[name].items():
             errors = [float(r["relative_rmse"]) for r in rows]
             if len(rows) < 3:
@@ -375,6 +514,8 @@ def check(out, scenes, results):
             elif not errors[-1] < 0.7 * errors[0]:
                 problems.append("%s %s: the error does not fall with time: %s" % (name, label,
                                                                                   errors))
+            if not all(r.get("predicted_relative_rmse") for r in rows if int(r["passes"]) >= 2):
+                problems.append("%s %s: no predicted error at 2 passes or more" % (name, label))
             times = [float(r["cpu_seconds"]) for r in rows[1:]]  # (fit_slope: why not the first)
             if times != sorted(times):
                 problems.append("%s %s: CPU time does not grow with passes" % (name, label))
@@ -397,6 +538,9 @@ def main():
     parser.add_argument("--max-passes", type=int, default=4096)
     parser.add_argument("--quick", action="store_true", help="the seconds-long test slice")
     parser.add_argument("--check", action="store_true", help="assert the pipeline worked")
+    parser.add_argument("--series", default="",
+                        help="comma-separated label prefixes: re-measure only these series of "
+                        "the scenes, against the references already in --out and --work")
     parser.add_argument("--replot", action="store_true",
                         help="redraw charts and tables from the CSV files in --out")
     args = parser.parse_args()
@@ -432,19 +576,35 @@ def main():
 def measure(args, tool, work, catalogue, names):
     ladder = ",".join(str(2 ** i) for i in range(0, 31) if 2 ** i <= args.max_passes)
     references, atlas_rows = {}, []
-    # A run of some scenes keeps the other scenes' rows already in --out.
+    prefixes = [p for p in args.series.split(",") if p]
+    chosen = lambda label: not prefixes or any(label.startswith(p) for p in prefixes)
+    # A run of some scenes keeps the other scenes' rows already in --out; a run of some series
+    # keeps the other series' rows and the references they were measured against.
     if os.path.exists(os.path.join(args.out, "references.csv")):
         with open(os.path.join(args.out, "references.csv")) as f:
-            references = {r["scene"]: r for r in csv.DictReader(f) if r["scene"] not in names}
+            references = {r["scene"]: r for r in csv.DictReader(f)
+                          if prefixes or r["scene"] not in names}
         with open(os.path.join(args.out, "atlas.csv")) as f:
-            atlas_rows = [r for r in csv.DictReader(f) if r["scene"] in references]
+            atlas_rows = [r for r in csv.DictReader(f) if r["scene"] in references and not (
+                r["scene"] in names and prefixes and chosen(r["integrator"]))]
+    elif prefixes:
+        sys.exit("--series re-measures against the references of an earlier run; none in %s"
+                 % args.out)
     for name in names:
         scene = catalogue[name]
-        print("%s: reference" % name, flush=True)
-        budget = args.reference_cpu_budget * scene.get("reference_budget_factor", 1)
-        reference_path, references[name] = make_reference(tool, name, scene, work, budget)
+        if prefixes:
+            reference_path = os.path.join(work, "%s_ref.exr" % name)
+            if name not in references or not os.path.exists(reference_path):
+                sys.exit("%s: no reference of an earlier run (%s)" % (name, reference_path))
+            references[name]["relative_noise"] = float(references[name]["relative_noise"])
+        else:
+            print("%s: reference" % name, flush=True)
+            budget = args.reference_cpu_budget * scene.get("reference_budget_factor", 1)
+            reference_path, references[name] = make_reference(tool, name, scene, work, budget)
         noise = references[name]["relative_noise"]
         for s in scene["series"]:
+            if not chosen(s["label"]):
+                continue
             try:
                 rows = run_helper(tool, scene, integrator_args(s["integrator"], s["params"]) + [
                     "--seed", str(SERIES_SEED), "--passes", ladder, "--cpu-budget",
@@ -501,7 +661,7 @@ def finish(args, catalogue, names, atlas_rows, references):
         f.write(summary(names, results, references, slopes_rows))
     print("wrote %s/{atlas.csv,references.csv,slopes.csv,summary.md} and %d charts"
           % (os.path.relpath(args.out, ROOT), len(names)))
-    if args.check and not check(args.out, names, results):
+    if args.check and not check(args.out, catalogue, names, results):
         sys.exit(1)
 
 

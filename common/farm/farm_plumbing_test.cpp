@@ -1,6 +1,7 @@
 // Unit tests of the farm plumbing both daemons share: the retry policy, typed refusals and the
-// structured log format.
+// structured log format, the chunks of a stream.
 #include "common/core/error.h"
+#include "common/farm/chunks.h"
 #include "common/farm/error_reason.h"
 #include "common/farm/log.h"
 #include "common/farm/retry_policy.h"
@@ -8,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <sstream>
 #include <vector>
 
 namespace alphorn::farm {
@@ -99,6 +101,60 @@ TEST(Log, KeyValueLinesQuoteWhatNeedsIt) {
     EXPECT_EQ(formatLogLine("warn", "unit.failed",
                             {field("error", "scene.xml:3: no \"x\""), field("empty", "")}),
               "level=warn event=unit.failed error=\"scene.xml:3: no \\\"x\\\"\" empty=\"\"");
+}
+
+// The chunks of a string and of a stream of the same bytes, as (data, first, last) triples.
+struct Chunk {
+    std::string data;
+    bool first, last;
+    bool operator==(const Chunk&) const = default;
+};
+
+static std::vector<Chunk> chunksOf(const std::string& bytes, size_t chunkBytes, bool asStream) {
+    std::vector<Chunk> chunks;
+    const ChunkSink sink = [&](std::string_view data, bool first, bool last) {
+        chunks.push_back({std::string(data), first, last});
+        return true;
+    };
+    if (asStream) {
+        std::istringstream in(bytes);
+        EXPECT_TRUE(sendChunks(in, sink, chunkBytes));
+    } else {
+        EXPECT_TRUE(sendChunks(bytes, sink, chunkBytes));
+    }
+    return chunks;
+}
+
+TEST(Chunks, CutIntoPiecesThatJoinToTheBytesWithFirstAndLastMarked) {
+    for (bool asStream : {false, true}) {
+        for (size_t size : {0, 1, 6, 7, 8, 21}) {
+            const std::string bytes = std::string("abcdefghijklmnopqrstuvwxyz").substr(0, size);
+            const std::vector<Chunk> chunks = chunksOf(bytes, 7, asStream);
+            SCOPED_TRACE(testing::Message() << "size " << size << " stream " << asStream);
+            // ceil(size / 7) chunks, one (empty) for no bytes: no empty chunk after a full one.
+            ASSERT_EQ(chunks.size(), std::max<size_t>(1, (size + 6) / 7));
+            std::string joined;
+            for (size_t i = 0; i < chunks.size(); ++i) {
+                EXPECT_EQ(chunks[i].first, i == 0);
+                EXPECT_EQ(chunks[i].last, i + 1 == chunks.size());
+                EXPECT_LE(chunks[i].data.size(), 7u);
+                joined += chunks[i].data;
+            }
+            EXPECT_EQ(joined, bytes);
+        }
+    }
+}
+
+TEST(Chunks, StopWhenTheSinkRefuses) {
+    for (bool asStream : {false, true}) {
+        int calls = 0;
+        const ChunkSink sink = [&](std::string_view, bool, bool) { return ++calls < 2; };
+        std::istringstream in(std::string(50, 'x'));
+        const bool finished =
+            asStream ? sendChunks(in, sink, 7) : sendChunks(std::string(50, 'x'), sink, 7);
+        EXPECT_FALSE(finished);
+        EXPECT_EQ(calls, 2);
+    }
 }
 
 }  // namespace

@@ -125,7 +125,9 @@ HttpServer::HttpServer(HttpServerOptions options) : m_options(std::move(options)
             return httplib::Server::HandlerResponse::Handled;
         });
     m_server->set_error_handler([](const httplib::Request& request, httplib::Response& response) {
-        if (response.status == 404) plainText(response, 404, "404 not found: " + request.path);
+        // An unknown path; a handler's own 404 (e.g. "no job 7") keeps its text.
+        if (response.status == 404 && response.body.empty())
+            plainText(response, 404, "404 not found: " + request.path);
     });
     m_server->set_exception_handler(
         [](const httplib::Request& request, httplib::Response& response, std::exception_ptr error) {

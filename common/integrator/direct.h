@@ -8,6 +8,7 @@
 #include "common/core/frame.h"
 #include "common/emitter/emitter.h"
 #include "common/sampler/sampler.h"
+#include "common/scene/bsdf_query.h"
 #include "common/scene/scene.h"
 
 namespace alphorn {
@@ -20,14 +21,6 @@ inline float balanceHeuristic(float a, float b) {
     if (!(b > 0.0f)) return 1.0f;
     if (std::isinf(b)) return 0.0f;
     return a / (a + b);
-}
-
-// A BSDF query at a hit, with the texture coordinates filled in.
-inline BSDFQueryRecord makeBSDFQuery(const Intersection& its, const Vector3f& wiLocal) {
-    BSDFQueryRecord rec(wiLocal);
-    rec.uv = its.uv;
-    rec.p = its.p;
-    return rec;
 }
 
 // The emitter query for a ray from `origin` along unit direction `dir` hitting `its`.

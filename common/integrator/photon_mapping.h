@@ -7,7 +7,7 @@
 #pragma once
 
 #include "common/integrator/integrator.h"
-#include "common/photon/photon_pass.h"
+#include "common/integrator/photon_pass.h"
 #include "common/photon/photon_tracer.h"
 
 #include <mutex>

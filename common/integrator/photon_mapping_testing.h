@@ -5,7 +5,7 @@
 
 #include "common/core/rng.h"
 #include "common/integrator/integrator.h"
-#include "common/photon/photon_pass.h"
+#include "common/integrator/photon_pass.h"
 #include "common/sampler/sampler.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"

@@ -5,7 +5,7 @@
 // tested by the Nori-format files tests/statistical/photon_*_ttest.xml.
 #include "common/integrator/integrator.h"
 #include "common/integrator/photon_mapping_testing.h"
-#include "common/photon/photon_pass.h"
+#include "common/integrator/photon_pass.h"
 #include "common/photon/radius_schedule.h"
 #include "common/render/local_render.h"
 #include "common/scene/parser.h"

@@ -16,7 +16,7 @@
 // their maps without any photon are tested in photonmapper_test.cpp and
 // volumetric_photonmapper_test.cpp.
 #include "common/integrator/integrator.h"
-#include "common/photon/photon_pass.h"
+#include "common/integrator/photon_pass.h"
 #include "common/render/local_render.h"
 #include "common/sampler/sampler.h"
 #include "common/scene/parser.h"

@@ -11,7 +11,13 @@ bool connectionPossible(const MisVertex* path, size_t k, const MisStrategies& st
                         size_t s) {
     if (s == 0) return strategies.hits && strategies.emitterHittable && k >= 1;
     if (!path[s - 1].connectible || (s <= k && !path[s].connectible)) return false;
-    return s == k ? strategies.lightTracing : strategies.connections;
+    if (s < k) return strategies.connections;
+    // An emitter seen directly (k = 1) is left to the camera path where that can hit it: its
+    // emission over a pixel is nearly constant, so the hit has next to no variance, and the
+    // balance heuristic would add light tracing's variance, which grows with the square of the
+    // pixel's value, to the brightest pixels of the image.
+    if (k == 1 && strategies.hits && strategies.emitterHittable) return false;
+    return strategies.lightTracing;
 }
 
 bool mergePossible(const MisVertex* path, size_t k, const MisStrategies& strategies, size_t m) {

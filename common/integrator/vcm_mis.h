@@ -13,7 +13,8 @@
 // and the camera-side densities of its camera vertices; light tracing and merging draw from all
 // lightPathCount light paths of a pass, so their densities carry that factor, and merging the
 // merge disk's area as well. The weight is the balance heuristic over the strategies enabled
-// and possible for the path (no connection at a delta surface, no hit of a point-like light).
+// and possible for the path (no connection at a delta surface, no hit of a point-like light, no
+// light tracing of an emitter the camera path can hit directly).
 // Densities of vertices produced through a delta bounce are placeholders (1) on both sides: the
 // delta factors cancel between the strategies that can produce such a path.
 #pragma once

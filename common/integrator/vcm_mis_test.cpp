@@ -107,5 +107,26 @@ TEST(VcmMis, ImpossibleStrategiesWeighNothing) {
     EXPECT_NEAR(weight(MisStrategy::Kind::Connection, 3), 1.0 / (1.0 + 0.01 * 0.7), 1e-12);
 }
 
+TEST(VcmMis, AnEmitterSeenDirectlyIsLeftToTheCameraPath) {
+    // x_0 on an area light, x_1 the camera: the camera path's hit takes the whole weight, light
+    // tracing the emitter point to the camera none, whatever the densities; light tracing keeps
+    // it only when hits are off (light tracing alone) or the light cannot be hit.
+    const std::vector<MisVertex> path = {{0.02, 50.0, true}, {1.0, 1.0, true}};
+    MisStrategies bdpt;
+    bdpt.lightPathCount = 1e6;
+    auto weight = [&](const MisStrategies& strategies, int s) {
+        return misWeight(path.data(), path.size(), strategies, {MisStrategy::Kind::Connection, s});
+    };
+    EXPECT_EQ(weight(bdpt, 0), 1.0);
+    EXPECT_EQ(weight(bdpt, 1), 0.0);
+    MisStrategies lightTracingOnly = bdpt;
+    lightTracingOnly.hits = false;
+    EXPECT_EQ(weight(lightTracingOnly, 1), 1.0);
+    // One bounce further, light tracing is one strategy among the others again.
+    const std::vector<MisVertex> bounce = {{0.02, 50.0, true}, {0.3, 0.4, true}, {1.0, 1.0, true}};
+    EXPECT_GT(misWeight(bounce.data(), bounce.size(), bdpt, {MisStrategy::Kind::Connection, 2}),
+              0.0);
+}
+
 }  // namespace
 }  // namespace alphorn

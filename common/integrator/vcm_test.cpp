@@ -238,9 +238,12 @@ TEST_F(VcmConvergence, BdptAgreesWithPathMisOnCornellBoxes) {
          cornellBox(R"(<integrator type="path_mis"><integer name="maxDepth" value="2"/>
              </integrator>)",
                     16, false)}};
+    // More bdpt passes than path_mis ones: the image mean is what the t-test compares, and
+    // the lamp seen directly varies more in it by camera hits than it did by light tracing
+    // (which, per pixel, was much the noisier; see vcm_mis.cpp).
     for (const Case& c : cases) {
         auto bdpt = loadText(c.bdpt);
-        const stats::RunningStats a = passMeans(*bdpt, 3, 300);
+        const stats::RunningStats a = passMeans(*bdpt, 3, 1000);
         auto pathMis = loadText(c.pathMis);
         const stats::RunningStats b = passMeans(*pathMis, 4, 600);
         EXPECT_TRUE(agree(a, b)) << c.name;

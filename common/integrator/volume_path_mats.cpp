@@ -2,12 +2,12 @@
 // sampling only (the report's integrator): light is found only where a path hits an emitter, so
 // delta lights (point, spotlight, projector) stay dark — use volume_path_mis for them. Media
 // are sampled by free-flight distance (closed form when homogeneous, delta tracking otherwise);
-// see volume.h for the loop and the medium bookkeeping.
+// see volume.h for the loop and media_traversal.h for the medium bookkeeping.
 //
 // `progressive` (boolean, the report's): its live preview maps onto our passes — every render
 // is a sum of one-sample passes already — so it is accepted and changes nothing.
 // A scene without media or null surfaces is rendered by path_mats's own loop (see
-// needsVolumetricPaths in volume.h).
+// needsVolumetricPaths in media_traversal.h).
 #include "common/integrator/integrator.h"
 #include "common/integrator/path.h"
 #include "common/integrator/volume.h"

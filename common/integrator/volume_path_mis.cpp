@@ -5,10 +5,10 @@
 // against light sampling by the balance heuristic, so direct light counts exactly once. Delta
 // lights (spotlight, projector, point) are reached by light sampling only. See volume.h.
 // In grey homogeneous media, delta lights are also sampled by equiangular sampling along every
-// segment (volume.h), MIS-weighted against the next-event estimates at free-flight scattering
+// segment (equiangular.h), MIS-weighted against the next-event estimates at free-flight scattering
 // points; `equiangular` (default true) turns it off, for comparisons.
 // `progressive` as in volume_path_mats. A scene without media or null surfaces is rendered by
-// path_mis's own loop (see needsVolumetricPaths in volume.h).
+// path_mis's own loop (see needsVolumetricPaths in media_traversal.h).
 #include "common/integrator/integrator.h"
 #include "common/integrator/path.h"
 #include "common/integrator/volume.h"

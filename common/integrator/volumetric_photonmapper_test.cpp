@@ -6,7 +6,7 @@
 #include "common/core/rng.h"
 #include "common/integrator/integrator.h"
 #include "common/integrator/photon_mapping_testing.h"
-#include "common/photon/photon_pass.h"
+#include "common/integrator/photon_pass.h"
 #include "common/photon/photon_tracer.h"
 #include "common/photon/radius_schedule.h"
 #include "common/render/local_render.h"

@@ -93,7 +93,7 @@ class Medium : public Object {
     virtual bool isVacuum() const { return false; }
     // A homogeneous medium whose extinction is the same in every channel: its free-flight
     // density sigmaT e^(-sigmaT t) is then known in closed form, which equiangular sampling
-    // needs for its MIS weights (volume.h). Empty for every other medium.
+    // needs for its MIS weights (equiangular.h). Empty for every other medium.
     struct GreyHomogeneous {
         float sigmaT;
         Color3f sigmaS;
@@ -110,6 +110,11 @@ class Medium : public Object {
   protected:
     std::shared_ptr<PhaseFunction> m_phase;
 };
+
+// True when `medium` can interact with light (non-null and not vacuum).
+inline bool isParticipating(const Medium* medium) {
+    return medium && !medium->isVacuum();
+}
 
 // exp(-sigma t) per channel, with exp(-0 * inf) = 1 rather than NaN: a channel that does not
 // attenuate transmits everything even along an infinite ray.

@@ -1,8 +1,8 @@
 #include "common/photon/photon_tracer.h"
 
 #include "common/emitter/delta_light.h"
-#include "common/integrator/direct.h"
-#include "common/integrator/volume.h"
+#include "common/scene/bsdf_query.h"
+#include "common/scene/media_traversal.h"
 #include "common/scene/scene.h"
 
 #include <tbb/parallel_for.h>
@@ -74,9 +74,9 @@ void tracePhoton(const Scene& scene, Sampler& sampler, DirectPhotons direct,
 
 // The medium an emitted photon starts in: the side facing it of the first medium boundary along
 // its ray (or, if none lies ahead, behind it). Without any boundary on that line, the camera's
-// medium, which the bookkeeping of volume.h gives every region no boundary declares (meshes
-// without media keep the current one). Unlike mediumAt() this is right for area lights that sit
-// on a medium boundary themselves: the line starts just off the light, along the emission.
+// medium, which the bookkeeping of media_traversal.h gives every region no boundary declares
+// (meshes without media keep the current one). Unlike mediumAt() this is right for area lights that
+// sit on a medium boundary themselves: the line starts just off the light, along the emission.
 const Medium* startMedium(const Scene& scene, const Ray3f& emitted) {
     for (const Vector3f& direction : {Vector3f(emitted.d), Vector3f(-emitted.d)}) {
         Ray3f ray(emitted.o, direction, Epsilon, Infinity);
@@ -144,7 +144,7 @@ struct PhotonOutputs {
     std::vector<const Medium*>* volumeMedia = nullptr;  // beside `volume`
 };
 
-// tracePhoton() through media: the free-flight and phase sampling of volume.h's path loop, run
+// tracePhoton() through media: the free-flight and phase sampling of volume.cpp's path loop, run
 // from the light. The throughput carries spectral MIS for chromatic media (see MediumSample).
 void tracePhotonThroughMedia(const Scene& scene, Sampler& sampler,
                              const Eigen::AlignedBox3f& mediaBox,

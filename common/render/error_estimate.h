@@ -18,6 +18,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <vector>
 
 namespace alphorn {
 
@@ -26,6 +27,9 @@ struct ErrorEstimate {
     double relativeRmse = 0.0;   // RMSE of the luminance / the mean luminance
     double meanLuminance = 0.0;  // of the full image over the pixels counted
     uint64_t pixels = 0;         // pixels with samples in both halves
+    // How the error has fallen: the log-log slope of the estimates at this and the previous
+    // decision points (fitSlope), when they are known. projectedPasses() uses it.
+    std::optional<double> slope;
 };
 
 // The estimate over the pixels of `region` of a film holding passes [0, passes). Nothing when
@@ -43,8 +47,44 @@ bool isDecisionPasses(uint32_t passes, uint32_t cap);
 // of a black image) never does; the cap always does.
 bool reachesTarget(const std::optional<ErrorEstimate>& estimate, double targetError);
 
-// The passes at which the estimate would reach `targetError`, assuming the Monte Carlo rate
-// (the error falls as 1/sqrt(passes)); at least estimate.passes.
+// The slope of log(error) against log(passes) by least squares over the last (up to) three
+// estimates of `history` (in decision-point order), clamped to [kSteepestSlope,
+// kShallowestSlope]; nothing with fewer than two. A progressive photon mapper's noise falls slower
+// than 1/sqrt(passes) while its radius shrinks; the measured slope projects it better than the
+// Monte Carlo rate. Three points, not all, so that the slope follows the current regime while
+// one firefly-driven estimate does not decide it alone.
+inline constexpr double kSteepestSlope = -1.0, kShallowestSlope = -0.1;
+std::optional<double> fitSlope(const std::vector<ErrorEstimate>& history);
+
+// The passes at which the estimate would reach `targetError`, the error falling as
+// passes^slope with the estimate's measured slope, or the Monte Carlo rate (-1/2) without one;
+// at least estimate.passes.
 double projectedPasses(const ErrorEstimate& estimate, double targetError);
+
+// Tile-adaptive passes (--adaptive): the image is divided into a fixed grid of decision tiles of
+// kAdaptiveTileSize pixels, whatever the render's tile size, so that --tile changes no byte. At a
+// decision point each tile still running is finished when its own RMSE, related to the mean
+// luminance of the whole image (not of the tile: a dark tile's error counts as little as it
+// shows), is at most the target; a finished tile gets no more passes. When every tile meets it,
+// the image's relative RMSE does too.
+inline constexpr int kAdaptiveTileSize = 32;
+std::vector<Tile> adaptiveTiles(int width, int height);
+
+struct TileDecisions {
+    // Over the whole image.
+    std::optional<ErrorEstimate> image;
+    // Per tile: finished now or before.
+    std::vector<bool> finished;
+};
+// The decision at `passes` passes; `finishedBefore[i]`: tile i finished at an earlier decision
+// point. Every pixel's half difference is scaled as for `passes` passes: a finished tile stopped
+// at a power of two, where the scale is 1/4 as it is for any even count, so this is exact for it
+// except at an odd cap, and keeps the estimate a function of the film, the decision point and
+// which tiles are finished (a restarted coordinator knows those, not when each finished). Pixels
+// near a finished tile's edge also hold samples of running neighbours (the reconstruction
+// filter's reach), which the halves count as the tile's own: the estimate there is approximate.
+TileDecisions decideTiles(const FilmBlock& film, const std::vector<Tile>& tiles,
+                          const std::vector<bool>& finishedBefore, uint32_t passes,
+                          double targetError);
 
 }  // namespace alphorn

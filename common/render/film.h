@@ -13,6 +13,7 @@
 #pragma once
 
 #include "common/core/color.h"
+#include "common/core/image.h"
 
 #include <cmath>
 #include <cstdint>
@@ -107,25 +108,6 @@ class FilmBlock {
     PassHalves m_halves = PassHalves::Kept;
     std::vector<PixelSum> m_pixels;
     std::vector<PixelSum> m_odd;  // empty unless the halves are kept
-};
-
-// A float RGB image, rows top to bottom.
-struct Image {
-    int width = 0, height = 0;
-    std::vector<float> rgb;  // 3 floats per pixel
-
-    Image() = default;
-    Image(int w, int h) : width(w), height(h), rgb(3 * size_t(w) * h, 0.0f) {}
-    Color3f get(int x, int y) const {
-        const float* p = &rgb[3 * (size_t(y) * width + x)];
-        return Color3f(p[0], p[1], p[2]);
-    }
-    void set(int x, int y, const Color3f& c) {
-        float* p = &rgb[3 * (size_t(y) * width + x)];
-        p[0] = c.r();
-        p[1] = c.g();
-        p[2] = c.b();
-    }
 };
 
 class ReconstructionFilter;

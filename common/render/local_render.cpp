@@ -1,9 +1,11 @@
 #include "common/render/local_render.h"
 
+#include "common/core/error.h"
 #include "common/scene/scene.h"
 
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 #include <mutex>
 
@@ -26,6 +28,30 @@ FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
                    t.y0 >= c.y1 + reach;
         });
     }
+    if (settings.adaptive && settings.crop) fail("adaptive passes do not combine with a crop");
+    // The adaptive grid's tiles, and what is rendered: each render tile cut along that grid, so
+    // that a finished grid tile's pixels get no more samples whatever the render tile size.
+    const bool adaptive = settings.adaptive && settings.targetError;
+    const std::vector<Tile> decisionTiles =
+        adaptive ? adaptiveTiles(size.x(), size.y()) : std::vector<Tile>{};
+    struct Piece {
+        Tile tile;
+        size_t decisionTile = 0;
+    };
+    std::vector<Piece> pieces;
+    for (const Tile& tile : tiles) {
+        if (!adaptive) {
+            pieces.push_back({tile, 0});
+            continue;
+        }
+        for (size_t d = 0; d < decisionTiles.size(); ++d) {
+            const Tile& grid = decisionTiles[d];
+            const Tile cut{std::max(tile.x0, grid.x0), std::max(tile.y0, grid.y0),
+                           std::min(tile.x1, grid.x1), std::min(tile.y1, grid.y1)};
+            if (cut.x0 < cut.x1 && cut.y0 < cut.y1) pieces.push_back({cut, d});
+        }
+    }
+    std::vector<bool> finished(decisionTiles.size(), false);
     uint64_t pixelsRendered = 0;
     for (const Tile& tile : tiles) pixelsRendered += uint64_t(tile.width()) * tile.height();
     RenderCounters localCounters;
@@ -36,15 +62,21 @@ FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
     RenderStatus status;
     status.passesTotal = settings.passes;
     status.samplesTotal = uint64_t(settings.passes) * pixelsRendered;
+    status.adaptiveTiles = static_cast<uint32_t>(decisionTiles.size());
+    std::vector<ErrorEstimate> history;  // the estimates at the decision points passed
+    std::vector<Piece> running;
     for (uint32_t begin = 0; begin < settings.passes && !status.targetReached;) {
         if (settings.stop && settings.stop->load()) break;
         // Chunks end at every decision point (units never change the sums, so this is free).
         const uint32_t end =
             std::min({settings.passes, begin + chunk, nextDecisionPasses(begin, settings.passes)});
+        running.clear();
+        for (const Piece& piece : pieces)
+            if (!adaptive || !finished[piece.decisionTile]) running.push_back(piece);
         // Pass data (photon maps) is built once and shared by every tile of these passes.
         const auto passData = preparePasses(scene, settings.seed, begin, end);
-        tbb::parallel_for(size_t(0), tiles.size(), [&](size_t i) {
-            RenderUnit unit{begin, end, tiles[i]};
+        tbb::parallel_for(size_t(0), running.size(), [&](size_t i) {
+            RenderUnit unit{begin, end, running[i].tile};
             FilmBlock block = makeUnitBlock(scene, unit.tile);
             renderUnit(scene, settings.seed, unit, passData, block, &counters);
             std::lock_guard lock(filmMutex);
@@ -54,9 +86,23 @@ FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
         status.samplesDone = counters.samples.load();
         status.rays = counters.rays.load();
         if (isDecisionPasses(end, settings.passes)) {
-            status.estimate = estimateError(film, estimateRegion, end);
-            status.targetReached =
-                settings.targetError && reachesTarget(status.estimate, *settings.targetError);
+            if (adaptive) {
+                const TileDecisions decisions =
+                    decideTiles(film, decisionTiles, finished, end, *settings.targetError);
+                status.estimate = decisions.image;
+                finished = decisions.finished;
+                status.adaptiveTilesFinished =
+                    static_cast<uint32_t>(std::count(finished.begin(), finished.end(), true));
+                status.targetReached = status.adaptiveTilesFinished == decisionTiles.size();
+            } else {
+                status.estimate = estimateError(film, estimateRegion, end);
+                status.targetReached =
+                    settings.targetError && reachesTarget(status.estimate, *settings.targetError);
+            }
+            if (status.estimate) {
+                history.push_back(*status.estimate);
+                status.estimate->slope = fitSlope(history);
+            }
         }
         if (progress) progress(status);
         begin = end;

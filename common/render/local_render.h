@@ -27,6 +27,10 @@ struct RenderSettings {
     // (nextDecisionPasses) whose error estimate over the image (or the crop) is at most this
     // relative RMSE. The stopping pass depends on nothing but the scene, seed and target.
     std::optional<double> targetError;
+    // With a target: tile-adaptive passes (decideTiles). At each decision point every tile of
+    // the fixed adaptive grid whose own estimate meets the target gets no more passes; the
+    // render ends when all have, or at the cap. Not with a crop.
+    bool adaptive = false;
 };
 
 struct RenderStatus {
@@ -39,6 +43,8 @@ struct RenderStatus {
     // cannot be made), and whether it stopped the render at the target.
     std::optional<ErrorEstimate> estimate;
     bool targetReached = false;
+    // Adaptive renders: the tiles of the adaptive grid, and those finished (no more passes).
+    uint32_t adaptiveTiles = 0, adaptiveTilesFinished = 0;
 };
 
 // Called from the rendering thread after each chunk of passes.

@@ -18,14 +18,17 @@ std::vector<Tile> makeTiles(int width, int height, int tileSize) {
     return tiles;
 }
 
-static int filterBorder(const Scene& scene) {
+int filterBorder(const Scene& scene) {
     return static_cast<int>(std::ceil(scene.camera()->filter()->radius() + 0.5f));
 }
 
-FilmBlock makeUnitBlock(const Scene& scene, const Tile& tile) {
-    int border = filterBorder(scene);
+FilmBlock unitBlock(const Tile& tile, int border) {
     return FilmBlock(tile.x0 - border, tile.y0 - border, tile.width() + 2 * border,
                      tile.height() + 2 * border);
+}
+
+FilmBlock makeUnitBlock(const Scene& scene, const Tile& tile) {
+    return unitBlock(tile, filterBorder(scene));
 }
 
 std::vector<std::shared_ptr<const PassData>> preparePasses(const Scene& scene, uint64_t seed,

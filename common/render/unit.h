@@ -28,7 +28,13 @@ struct RenderUnit {
 // The tiles of an image in row-major order; edge tiles are smaller.
 std::vector<Tile> makeTiles(int width, int height, int tileSize);
 
-// The film block a unit writes: its tile grown by the reconstruction filter's reach.
+// How many pixels beyond its own a sample's filtered contribution can reach: the border around
+// a unit's tile.
+int filterBorder(const Scene& scene);
+// The film block of a unit whose tile is `tile`: the tile grown by `border` pixels on each side.
+// The coordinator, which keeps a job's border rather than its scene, checks results against it.
+FilmBlock unitBlock(const Tile& tile, int border);
+// The film block a unit writes: unitBlock(tile, filterBorder(scene)).
 FilmBlock makeUnitBlock(const Scene& scene, const Tile& tile);
 
 // Counters a caller can poll while a unit renders (progress, Mrays/s).

@@ -8,7 +8,7 @@
 // u runs left to right across the image and v bottom to top (v = 0 is the last row), so an
 // image appears upright on a quad whose uv has v pointing up. Texel centres lie at
 // ((i + 0.5) / width, 1 - (j + 0.5) / height).
-#include "common/render/image_io.h"
+#include "common/core/image.h"
 #include "common/texture/mapping.h"
 #include "common/texture/texture.h"
 

@@ -1,7 +1,7 @@
 #include "common/texture/texture.h"
 #include "common/bsdf/bsdf.h"
+#include "common/core/image.h"
 #include "common/core/rng.h"
-#include "common/render/image_io.h"
 #include "common/texture/plugin_testing.h"
 
 #include <gtest/gtest.h>

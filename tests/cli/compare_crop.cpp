@@ -1,6 +1,6 @@
 // compare_crop WHOLE.exr CROP.exr X0 Y0: exits 0 when every pixel of CROP equals, bit for bit,
 // the pixel of WHOLE at (X0 + x, Y0 + y), and says which differs otherwise (cli.crop).
-#include "common/render/image_io.h"
+#include "common/core/image.h"
 
 #include <cstdio>
 #include <cstdlib>

@@ -1,4 +1,4 @@
-#include "common/render/image_io.h"
+#include "common/core/image.h"
 
 #include "common/core/error.h"
 

@@ -1,0 +1,41 @@
+// Images in memory, and their files: float RGB OpenEXR for results, 8-bit sRGB PNG for viewing.
+#pragma once
+
+#include "common/core/color.h"
+
+#include <string>
+#include <vector>
+
+namespace alphorn {
+
+// A float RGB image, rows top to bottom.
+struct Image {
+    int width = 0, height = 0;
+    std::vector<float> rgb;  // 3 floats per pixel
+
+    Image() = default;
+    Image(int w, int h) : width(w), height(h), rgb(3 * size_t(w) * h, 0.0f) {}
+    Color3f get(int x, int y) const {
+        const float* p = &rgb[3 * (size_t(y) * width + x)];
+        return Color3f(p[0], p[1], p[2]);
+    }
+    void set(int x, int y, const Color3f& c) {
+        float* p = &rgb[3 * (size_t(y) * width + x)];
+        p[0] = c.r();
+        p[1] = c.g();
+        p[2] = c.b();
+    }
+};
+
+// Writes a float RGB EXR (ZIP compression). Throws Error naming the path on failure.
+void writeEXR(const std::string& path, const Image& image);
+// Reads the R, G, B channels of an EXR as float (missing channels are zero).
+Image readEXR(const std::string& path);
+// Writes an 8-bit sRGB PNG of image * 2^exposure, clamped to [0, 1].
+void writePNG(const std::string& path, const Image& image, float exposure = 0.0f);
+// Reads an 8-bit or 16-bit PNG (grey or RGB, alpha ignored) as linear float RGB.
+Image readPNG(const std::string& path);
+// The PNG path written beside an EXR: "out/x.exr" -> "out/x.png".
+std::string pngPathFor(const std::string& exrPath);
+
+}  // namespace alphorn

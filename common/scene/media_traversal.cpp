@@ -1,0 +1,62 @@
+#include "common/scene/media_traversal.h"
+
+#include "common/bsdf/bsdf.h"
+
+namespace alphorn {
+
+bool needsVolumetricPaths(const Scene& scene) {
+    if (isParticipating(scene.camera()->medium())) return true;
+    for (const auto& mesh : scene.meshes())
+        if (mesh->bsdf()->isNull() || isParticipating(mesh->insideMedium()) ||
+            isParticipating(mesh->outsideMedium()))
+            return true;
+    return false;
+}
+
+Eigen::AlignedBox3f mediaBounds(const Scene& scene) {
+    Eigen::AlignedBox3f box = scene.bounds();
+    for (const auto& emitter : scene.emitters()) {
+        // An emitted ray starts on the light: its position for point-like lights.
+        Ray3f ray;
+        emitter->samplePhoton(ray, Point2f(0.5f, 0.5f), Point2f(0.5f, 0.5f));
+        if (ray.o.allFinite()) box.extend(ray.o);
+    }
+    Ray3f cameraRay;
+    const Vector2f centre = 0.5f * scene.camera()->outputSize().cast<float>();
+    scene.camera()->sampleRay(cameraRay, centre, Point2f(0.5f, 0.5f));
+    if (cameraRay.o.allFinite()) box.extend(cameraRay.o);
+    if (box.isEmpty()) return box;
+    const Vector3f margin = 0.01f * box.sizes() + Vector3f::Constant(Epsilon);
+    return Eigen::AlignedBox3f(box.min() - margin, box.max() + margin);
+}
+
+const Medium* mediumAt(const Scene& scene, const Point3f& p) {
+    // An oblique direction, so that the ray does not run along the faces of axis-aligned boxes.
+    Ray3f ray(p, Vector3f(0.5376f, 0.6132f, 0.5787f).normalized(), 0.0f, Infinity);
+    for (;;) {
+        Intersection its;
+        if (!scene.rayIntersect(ray, its)) return nullptr;
+        if (its.mesh->hasMediumInterface()) return its.mesh->mediumTowards(its, -ray.d, nullptr);
+        ray = Ray3f(its.p, ray.d, Epsilon, Infinity);
+    }
+}
+
+Color3f transmittanceAlong(const Scene& scene, Sampler& sampler, Ray3f ray, const Medium* medium,
+                           const Eigen::AlignedBox3f& bounds) {
+    Color3f result(1.0f);
+    for (;;) {
+        Intersection its;
+        const bool hit = scene.rayIntersect(ray, its);
+        if (isParticipating(medium)) {
+            const float end = hit ? its.t : std::min(ray.maxt, exitDistance(bounds, ray));
+            result *= medium->transmittance(Ray3f(ray.o, ray.d), end, sampler);
+            if (result.isBlack()) return result;
+        }
+        if (!hit) return result;
+        if (!its.mesh->bsdf()->isNull()) return Color3f(0.0f);
+        medium = its.mesh->mediumTowards(its, ray.d, medium);
+        ray = Ray3f(its.p, ray.d, Epsilon, ray.maxt - its.t);
+    }
+}
+
+}  // namespace alphorn

@@ -106,7 +106,7 @@ int main(int argc, char** argv) {
                 round, renderRate * 1e-6, raysPerSample, rawRate * 1e-6, ratios.back());
         }
         std::sort(ratios.begin(), ratios.end());
-        std::printf("median ratio renderer / raw Embree: %.3f (goal >= 0.5)\n",
+        std::printf("median ratio renderer / raw Embree: %.3f (goal >= 0.7)\n",
                     ratios[ratios.size() / 2]);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "error: %s\n", e.what());

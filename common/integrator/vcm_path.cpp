@@ -52,7 +52,7 @@ PathVertex surfaceVertex(const Intersection& its, const Vector3f& toPrevious, co
     PathVertex v;
     v.p = its.p;
     v.shFrame = its.shFrame;
-    v.ng = its.geoFrame.n;
+    v.ng = its.geometricNormal();
     v.uv = its.uv;
     v.bsdf = its.mesh->bsdf();
     v.toPrevious = toPrevious;
@@ -326,10 +326,11 @@ void BidirectionalIntegrator::traceLightPath(const Scene& scene, Sampler& sample
         // Flux arrives through the geometric surface, radiance is scattered about the shading
         // normal: the ratio of the two cosines of the arrival (1 on flat-shaded meshes) turns
         // the one into the other, as path tracing's BSDF weights (Veach's adjoint BSDF).
-        const float cosGeometric = std::abs(its.geoFrame.n.dot(dir));
+        PathVertex v = surfaceVertex(its, -dir, beta);
+        const float cosGeometric = std::abs(v.ng.dot(dir));
         const float arrival =
             cosGeometric > 0.0f ? std::abs(its.shFrame.n.dot(dir)) / cosGeometric : 0.0f;
-        PathVertex v = surfaceVertex(its, -dir, beta * arrival);
+        v.beta = beta * arrival;
         v.pdfForward = previousDelta ? 1.0 : toArea(directionPdf, out.back(), v);
         out.push_back(v);
         if (!v.delta && m_strategies.lightTracing)
@@ -350,7 +351,7 @@ void BidirectionalIntegrator::traceLightPath(const Scene& scene, Sampler& sample
         // cosine), the sampling weight holds the shading one.
         const float cosShadingNext = std::abs(Frame::cosTheta(rec.wo));
         if (!(cosShadingNext > 0.0f)) return;
-        const float leaving = std::abs(its.geoFrame.n.dot(next)) / cosShadingNext;
+        const float leaving = std::abs(v.ng.dot(next)) / cosShadingNext;
         PathVertex& current = out.back();
         PathVertex& previous = out[out.size() - 2];
         if (discrete || (index == 1 && previous.delta))

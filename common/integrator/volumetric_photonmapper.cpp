@@ -278,7 +278,8 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
         if (!line.spans.empty() && !data.volume.empty())
             data.volume.crossedBy(line.origin, line.direction, 0.0f, line.end, line.hits);
         // crossedBy() returns the photons by increasing t, ties by index.
-        const float cameraSide = wall ? (line.origin - wall->p).dot(wall->geoFrame.n) : 0.0f;
+        const Normal3f wallNormal = wall ? wall->geometricNormal() : Normal3f::UnitZ();
+        const float cameraSide = wall ? (line.origin - wall->p).dot(wallNormal) : 0.0f;
         const std::vector<Photon>& photons = data.volume.photons();
         Color3f beam(0.0f), emitted(0.0f);
         size_t next = 0;
@@ -293,8 +294,7 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
             const Photon& photon = photons[hit.index];
             const Medium* medium = data.volume.medium(hit.index);
             if (!medium) continue;
-            if (wall && (photon.position - wall->p).dot(wall->geoFrame.n) * cameraSide < 0.0f)
-                continue;
+            if (wall && (photon.position - wall->p).dot(wallNormal) * cameraSide < 0.0f) continue;
             walkTo(hit.t);
             if (transmittance.isBlack()) break;
             const float r = data.volume.radius(hit.index);

@@ -45,7 +45,7 @@ constexpr ByteTables makeSecondDimensionReversed() {
 }
 constexpr ByteTables kSecondDimensionReversed = makeSecondDimensionReversed();
 
-uint32_t sobolSecondDimensionReversed(uint32_t index) {
+[[gnu::always_inline]] inline uint32_t sobolSecondDimensionReversed(uint32_t index) {
     const auto& t = kSecondDimensionReversed.byte;
     return t[0][index & 255u] ^ t[1][index >> 8 & 255u] ^ t[2][index >> 16 & 255u] ^
            t[3][index >> 24];
@@ -59,26 +59,44 @@ uint32_t sobolSecondDimensionReversed(uint32_t index) {
 // sample indices) get strongly dependent higher bits (a chi-square test of the bits above the
 // difference, over many keys, rejects it); two rounds of this form passed that test, the third
 // is margin.
-uint32_t lowToHighPermutation(uint32_t x, uint32_t key) {
+// The rounds are written out (and the helpers forced inline) because this is the sampler's whole
+// cost: as a loop around a call it was a sixth of a path-traced render's profile.
+struct RoundKeys {
+    uint32_t addend[3], factor[3];
+};
+[[gnu::always_inline]] inline RoundKeys roundKeys(uint32_t key) {
+    RoundKeys keys;
+#pragma GCC unroll 3
     for (int round = 0; round < 3; ++round) {
-        x += key;
-        x *= (key >> 7) | 1u;
-        x ^= x * 0x9a3c5e14u;
+        keys.addend[round] = key;
+        keys.factor[round] = (key >> 7) | 1u;
         key = (key ^ (key >> 16)) * 0x9e3779b9u + 0x7f4a7c15u;
+    }
+    return keys;
+}
+[[gnu::always_inline]] inline uint32_t lowToHighPermutation(uint32_t x, const RoundKeys& keys) {
+#pragma GCC unroll 3
+    for (int round = 0; round < 3; ++round) {
+        x += keys.addend[round];
+        x *= keys.factor[round];
+        x ^= x * 0x9a3c5e14u;
     }
     return x;
 }
+[[gnu::always_inline]] inline uint32_t lowToHighPermutation(uint32_t x, uint32_t key) {
+    return lowToHighPermutation(x, roundKeys(key));
+}
 
-uint32_t reverseBits(uint32_t x) {
-    x = (x << 16) | (x >> 16);
-    x = ((x & 0x00ff00ffu) << 8) | ((x & 0xff00ff00u) >> 8);
+// A byte swap (one instruction) followed by the swaps within bytes.
+[[gnu::always_inline]] inline uint32_t reverseBits(uint32_t x) {
+    x = __builtin_bswap32(x);
     x = ((x & 0x0f0f0f0fu) << 4) | ((x & 0xf0f0f0f0u) >> 4);
     x = ((x & 0x33333333u) << 2) | ((x & 0xccccccccu) >> 2);
     return ((x & 0x55555555u) << 1) | ((x & 0xaaaaaaaau) >> 1);
 }
 
 // 24 bits, so that the float is exact and below 1.
-float toUnitFloat(uint32_t fraction) {
+[[gnu::always_inline]] inline float toUnitFloat(uint32_t fraction) {
     return static_cast<float>(fraction >> 8) * 0x1p-24f;
 }
 

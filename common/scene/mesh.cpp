@@ -73,6 +73,34 @@ Eigen::AlignedBox3f Mesh::bounds() const {
     return box;
 }
 
+namespace {
+
+// The true normal of triangle (p0, p1, p2), unit length. Degenerate triangles still get a valid
+// normal so nothing downstream divides by zero.
+Normal3f unitGeometricNormal(const Point3f& p0, const Point3f& p1, const Point3f& p2) {
+    Vector3f geometric = (p1 - p0).cross(p2 - p0);
+    float length = geometric.norm();
+    return length > 0.0f ? Vector3f(geometric / length) : Vector3f::UnitZ();
+}
+
+}  // namespace
+
+Normal3f Mesh::geometricNormal(uint32_t triangle) const {
+    return unitGeometricNormal(m_positions.col(m_faces(0, triangle)),
+                               m_positions.col(m_faces(1, triangle)),
+                               m_positions.col(m_faces(2, triangle)));
+}
+
+bool Mesh::interpolatedNormal(uint32_t i0, uint32_t i1, uint32_t i2, float u, float v, float w,
+                              Normal3f& normal) const {
+    if (m_normals.cols() == 0) return false;
+    Vector3f n = w * m_normals.col(i0) + u * m_normals.col(i1) + v * m_normals.col(i2);
+    float nl = n.norm();
+    if (!(nl > 0.0f && std::isfinite(nl))) return false;
+    normal = n / nl;
+    return true;
+}
+
 void Mesh::fillIntersection(uint32_t triangle, float u, float v, Intersection& its) const {
     const uint32_t i0 = m_faces(0, triangle), i1 = m_faces(1, triangle), i2 = m_faces(2, triangle);
     const float w = 1.0f - u - v;
@@ -85,59 +113,65 @@ void Mesh::fillIntersection(uint32_t triangle, float u, float v, Intersection& i
     else
         its.uv = Point2f(u, v);
 
-    Vector3f geometric = (p1 - p0).cross(p2 - p0);
-    float length = geometric.norm();
-    // Degenerate triangles still get a valid frame so nothing downstream divides by zero.
-    geometric = length > 0.0f ? Vector3f(geometric / length) : Vector3f::UnitZ();
-    its.geoFrame = Frame(geometric);
-
-    if (m_normals.cols() > 0) {
-        Vector3f n = w * m_normals.col(i0) + u * m_normals.col(i1) + v * m_normals.col(i2);
-        float nl = n.norm();
-        its.shFrame = nl > 0.0f && std::isfinite(nl) ? Frame(Vector3f(n / nl)) : its.geoFrame;
-    } else {
-        its.shFrame = its.geoFrame;
-    }
-    if (m_uvs.cols() > 0) alignTangentWithU(i0, i1, i2, its.shFrame);
+    Normal3f shading;
+    if (!interpolatedNormal(i0, i1, i2, u, v, w, shading))
+        shading = unitGeometricNormal(p0, p1, p2);
+    // With uvs, the tangent follows u, and the frame built from the normal alone (it costs a
+    // division) is only the fallback where the uvs are degenerate.
+    if (m_uvs.cols() > 0 && frameAlignedWithU(i0, i1, i2, shading, its.shFrame)) return;
+    its.shFrame = Frame(shading);
 }
 
-// Turns the shading frame about its normal so that its tangent s points along dp/du, and points
-// its bitangent t to the side of dp/dv: tangent-space data (normal maps: red along +u, green
-// along +v) then keeps its orientation relative to the texture on any mesh. Where the uv mapping
-// is mirrored (dp/du x dp/dv against the normal) this makes the frame left-handed, which every
-// use of a frame allows: it is only ever used through dot products and their inverse.
-// Triangles whose uvs are degenerate keep the arbitrary tangent.
-void Mesh::alignTangentWithU(uint32_t i0, uint32_t i1, uint32_t i2, Frame& frame) const {
+// Builds the frame about normal n whose tangent s points along dp/du, with its bitangent t
+// pointed to the side of dp/dv: tangent-space data (normal maps: red along +u, green along +v)
+// then keeps its orientation relative to the texture on any mesh. Where the uv mapping is
+// mirrored (dp/du x dp/dv against the normal) this makes the frame left-handed, which every use
+// of a frame allows: it is only ever used through dot products and their inverse. Returns false,
+// leaving `frame` alone, where the uvs are degenerate.
+bool Mesh::frameAlignedWithU(uint32_t i0, uint32_t i1, uint32_t i2, const Normal3f& n,
+                             Frame& frame) const {
     const Vector2f duv02 = m_uvs.col(i0) - m_uvs.col(i2), duv12 = m_uvs.col(i1) - m_uvs.col(i2);
     const float det = duv02.x() * duv12.y() - duv02.y() * duv12.x();
-    if (!(std::abs(det) > 1e-12f)) return;
+    if (!(std::abs(det) > 1e-12f)) return false;
     const Vector3f dp02 = m_positions.col(i0) - m_positions.col(i2);
     const Vector3f dp12 = m_positions.col(i1) - m_positions.col(i2);
     const Vector3f dpdu = (duv12.y() * dp02 - duv02.y() * dp12) / det;
-    Vector3f s = dpdu - frame.n * frame.n.dot(dpdu);
+    Vector3f s = dpdu - n * n.dot(dpdu);
     const float length = s.norm();
-    if (!(length > 1e-12f) || !std::isfinite(length)) return;
+    if (!(length > 1e-12f) || !std::isfinite(length)) return false;
     s /= length;
     const Vector3f dpdv = (duv02.x() * dp12 - duv12.x() * dp02) / det;
-    const Vector3f t = frame.n.cross(s);
-    frame = Frame(s, t.dot(dpdv) < 0.0f ? Vector3f(-t) : t, frame.n);
+    const Vector3f t = n.cross(s);
+    frame = Frame(s, t.dot(dpdv) < 0.0f ? Vector3f(-t) : t, n);
+    return true;
 }
 
 const Medium* Mesh::mediumTowards(const Intersection& its, const Vector3f& dir,
                                   const Medium* current) const {
     if (!m_hasMediumInterface) return current;
-    Vector3f outward = its.geoFrame.n;
+    Vector3f outward = its.geometricNormal();
     if (outward.dot(its.shFrame.n) < 0.0f) outward = -outward;
     return dir.dot(outward) < 0.0f ? m_inside.get() : m_outside.get();
 }
 
+// The same position, normal and uv as fillIntersection gives, without the frames (a light
+// sample needs only the normal).
 SurfaceSample Mesh::sampleSurface(const Point2f& sample) const {
     float u = sample.x();
     uint32_t triangle = static_cast<uint32_t>(m_areaPdf.sampleReuse(u));
     Point2f bary = warp::squareToUniformTriangle(Point2f(u, sample.y()));
-    Intersection its;
-    fillIntersection(triangle, bary.x(), bary.y(), its);
-    return SurfaceSample{its.p, its.shFrame.n, its.uv, 1.0f / m_surfaceArea};
+    const float bu = bary.x(), bv = bary.y(), w = 1.0f - bu - bv;
+    const uint32_t i0 = m_faces(0, triangle), i1 = m_faces(1, triangle), i2 = m_faces(2, triangle);
+    const Point3f p0 = m_positions.col(i0), p1 = m_positions.col(i1), p2 = m_positions.col(i2);
+    SurfaceSample s;
+    s.p = w * p0 + bu * p1 + bv * p2;
+    if (!interpolatedNormal(i0, i1, i2, bu, bv, w, s.n)) s.n = unitGeometricNormal(p0, p1, p2);
+    if (m_uvs.cols() > 0)
+        s.uv = w * m_uvs.col(i0) + bu * m_uvs.col(i1) + bv * m_uvs.col(i2);
+    else
+        s.uv = Point2f(bu, bv);
+    s.pdf = 1.0f / m_surfaceArea;
+    return s;
 }
 
 std::string Mesh::toString() const {

@@ -18,13 +18,15 @@ struct Intersection {
     Point3f p = Point3f::Zero();
     float t = Infinity;
     Point2f uv = Point2f::Zero();
-    Frame shFrame;   // shading frame (interpolated normal)
-    Frame geoFrame;  // geometric frame (true triangle normal)
+    Frame shFrame;  // shading frame (interpolated normal)
     const Mesh* mesh = nullptr;
     uint32_t triangle = 0;
 
     Vector3f toLocal(const Vector3f& d) const { return shFrame.toLocal(d); }
     Vector3f toWorld(const Vector3f& d) const { return shFrame.toWorld(d); }
+    // The true triangle normal, unit length. Computed on demand: most hits never ask for it,
+    // and its normalisation costs three divisions.
+    Normal3f geometricNormal() const;
 };
 
 // A point sampled uniformly on a mesh's surface.
@@ -55,6 +57,8 @@ class Mesh : public Object {
     float surfaceArea() const { return m_surfaceArea; }
     Eigen::AlignedBox3f bounds() const;
 
+    // The true normal of a triangle, unit length (UnitZ for a degenerate one).
+    Normal3f geometricNormal(uint32_t triangle) const;
     // Fills the hit record from a triangle index and barycentrics (u, v) as Embree reports them.
     void fillIntersection(uint32_t triangle, float u, float v, Intersection& its) const;
     // Samples a point uniformly by area.
@@ -87,7 +91,12 @@ class Mesh : public Object {
     std::string m_name;
 
   private:
-    void alignTangentWithU(uint32_t i0, uint32_t i1, uint32_t i2, Frame& frame) const;
+    // The interpolated vertex normal at barycentrics (u, v, w), unit length; false if the mesh
+    // has no normals or they cancel there.
+    bool interpolatedNormal(uint32_t i0, uint32_t i1, uint32_t i2, float u, float v, float w,
+                            Normal3f& normal) const;
+    bool frameAlignedWithU(uint32_t i0, uint32_t i1, uint32_t i2, const Normal3f& n,
+                           Frame& frame) const;
 
     Eigen::Matrix<float, 3, Eigen::Dynamic> m_positions;
     Eigen::Matrix<float, 3, Eigen::Dynamic> m_normals;  // empty when the file has none
@@ -101,6 +110,10 @@ class Mesh : public Object {
     std::shared_ptr<Medium> m_inside, m_outside;
     bool m_hasMediumInterface = false;
 };
+
+inline Normal3f Intersection::geometricNormal() const {
+    return mesh->geometricNormal(triangle);
+}
 
 // The OBJ loader's text filter: empties tinyobjloader's "vw" (skin weight) lines, which Alphorn
 // ignores and tinyobjloader parses unsafely (obj_mesh.cpp).

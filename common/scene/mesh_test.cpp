@@ -1,5 +1,8 @@
 #include "common/scene/mesh.h"
 
+#include "common/core/dpdf.h"
+#include "common/core/rng.h"
+#include "common/core/warp.h"
 #include "common/sampler/sampler.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
@@ -99,6 +102,57 @@ TEST(MeshTangents, NormalMapGreenLeansTowardsPlusV) {
     const float towardsV = radianceWithLightAt(1.0f), awayFromV = radianceWithLightAt(-1.0f);
     EXPECT_GT(awayFromV, 0.0f);
     EXPECT_GT(towardsV, 1.5f * awayFromV);
+}
+
+// A light sample is the point fillIntersection gives at the same triangle and barycentrics,
+// bit for bit (sampleSurface computes it without frames): the triangle and the reused random
+// number are found with a table built as the mesh builds its own. Meshes with normals and uvs
+// (sphere.obj), a normal and uvs (quad.obj) and neither (triangle.obj).
+TEST(MeshSurfaceSample, IsTheHitPointOfFillIntersection) {
+    for (const char* file : {"sphere.obj", "quad.obj", "triangle.obj"}) {
+        SCOPED_TRACE(file);
+        auto scene = sceneWithMesh(file);
+        const Mesh& mesh = *scene->meshes().at(0);
+        DiscretePDF areas;
+        areas.reserve(mesh.triangleCount());
+        for (uint32_t i = 0; i < mesh.triangleCount(); ++i) areas.append(mesh.triangleArea(i));
+        areas.normalize();
+        Rng rng(5, 0, 0, StreamPurpose::Test);
+        for (int i = 0; i < 200; ++i) {
+            const Point2f sample(rng.nextFloat(), rng.nextFloat());
+            const SurfaceSample s = mesh.sampleSurface(sample);
+            float u = sample.x();
+            const uint32_t triangle = static_cast<uint32_t>(areas.sampleReuse(u));
+            const Point2f bary = warp::squareToUniformTriangle(Point2f(u, sample.y()));
+            Intersection its;
+            mesh.fillIntersection(triangle, bary.x(), bary.y(), its);
+            EXPECT_EQ(s.p, its.p);
+            EXPECT_EQ(s.n, its.shFrame.n);
+            EXPECT_EQ(s.uv, its.uv);
+            EXPECT_EQ(s.pdf, 1.0f / mesh.surfaceArea());
+        }
+    }
+}
+
+// The true normal (computed on demand) is the unit normal of the hit triangle's winding, and a
+// mesh without vertex normals shades with it.
+TEST(MeshGeometricNormal, IsTheTriangleNormalAndTheShadingNormalWithoutVertexNormals) {
+    auto sphere = sceneWithMesh("sphere.obj");
+    const Intersection its = hit(*sphere, Point3f(3.0f, 0.2f, 0.1f), Vector3f(-1, 0, 0));
+    const Mesh& mesh = *its.mesh;
+    const auto corner = [&](int k) {
+        return Vector3f(mesh.positions().col(mesh.faces()(k, its.triangle)));
+    };
+    const Vector3f expected = (corner(1) - corner(0)).cross(corner(2) - corner(0)).normalized();
+    EXPECT_LT((its.geometricNormal() - expected).norm(), 1e-6f);
+    EXPECT_GT(its.geometricNormal().dot(its.shFrame.n), 0.99f);  // outward, as the vertex normals
+
+    auto flat = sceneWithMesh("triangle.obj");
+    const Mesh& triangle = *flat->meshes().at(0);
+    Intersection t;
+    triangle.fillIntersection(0, 0.2f, 0.3f, t);
+    EXPECT_NEAR(t.geometricNormal().norm(), 1.0f, 1e-6f);
+    EXPECT_EQ(t.shFrame.n, t.geometricNormal());
 }
 
 // tinyobjloader's "vw" lines are emptied (line breaks kept, for its line numbers); other lines,

@@ -31,17 +31,12 @@
 
 using namespace alphorn;
 using bench::median;
+using bench::processCpuSeconds;
 using bench::seconds;
 
 namespace {
 
 const std::string kSource = ALPHORN_SOURCE_DIR;
-
-double processCpuSeconds() {
-    timespec now;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
-    return double(now.tv_sec) + 1e-9 * double(now.tv_nsec);
-}
 
 struct BenchScene {
     std::string name, path;

@@ -32,15 +32,10 @@
 #include <vector>
 
 using namespace alphorn;
+using bench::processCpuSeconds;
 using bench::seconds;
 
 namespace {
-
-double cpuSeconds() {
-    timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
 
 struct PassTime {
     uint32_t pass;
@@ -76,12 +71,12 @@ int main(int argc, char** argv) {
         for (uint32_t pass : passes) {
             PassTime t{pass, 0, 0, 0, 0};
             auto start = std::chrono::steady_clock::now();
-            double cpu = cpuSeconds();
+            double cpu = processCpuSeconds();
             auto data = preparePasses(*scene, 1, pass, pass + 1);
             t.photonWall = seconds(start);
-            t.photonCpu = cpuSeconds() - cpu;
+            t.photonCpu = processCpuSeconds() - cpu;
             start = std::chrono::steady_clock::now();
-            cpu = cpuSeconds();
+            cpu = processCpuSeconds();
             // Tiles of 64 pixels in parallel, each its own unit, as renderLocal() renders them.
             FilmBlock film(0, 0, size.x(), size.y());
             std::mutex filmMutex;
@@ -92,7 +87,7 @@ int main(int argc, char** argv) {
                 film.add(block);
             });
             t.cameraWall = seconds(start);
-            t.cameraCpu = cpuSeconds() - cpu;
+            t.cameraCpu = processCpuSeconds() - cpu;
             std::printf(
                 "pass %u: photon pass %.2f s (CPU/wall %.2f), camera pass %.2f s (CPU/wall %.2f), "
                 "total %.2f s\n",

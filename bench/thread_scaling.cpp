@@ -29,6 +29,7 @@
 
 using namespace alphorn;
 using bench::median;
+using bench::processCpuSeconds;
 using bench::seconds;
 
 namespace {
@@ -37,13 +38,6 @@ struct Job {
     std::string scene;
     uint32_t passes;
 };
-
-// CPU seconds used so far by all threads of this process.
-double processCpuSeconds() {
-    timespec now;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
-    return double(now.tv_sec) + 1e-9 * double(now.tv_nsec);
-}
 
 struct Timing {
     double wall = 0.0, cpu = 0.0;

@@ -13,7 +13,6 @@
 #include <absl/strings/ascii.h>
 #include <absl/strings/match.h>
 #include <absl/strings/str_format.h>
-#include <google/protobuf/util/json_util.h>
 
 #include <pwd.h>
 #include <unistd.h>
@@ -235,15 +234,6 @@ std::string submitterName() {
     char host[256] = {};
     ::gethostname(host, sizeof host - 1);
     return (user.empty() ? "uid" + std::to_string(::getuid()) : user) + "@" + host;
-}
-
-std::string toJson(const google::protobuf::Message& message) {
-    std::string json;
-    google::protobuf::util::JsonPrintOptions options;
-    options.always_print_primitive_fields = true;
-    options.preserve_proto_field_names = true;
-    (void)google::protobuf::util::MessageToJsonString(message, &json, options);
-    return json;
 }
 
 v1::JobStatus FarmClient::submit(const std::string& scenePath, const v1::JobSettings& settings,

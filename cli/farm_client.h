@@ -4,6 +4,7 @@
 
 #include "alphorn/v1/client_service.grpc.pb.h"
 #include "cli/commands.h"
+#include "common/farm/convert.h"
 
 #include <CLI/CLI.hpp>
 
@@ -81,7 +82,7 @@ class FarmClient {
     std::unique_ptr<v1::ClientService::Stub> m_stub;
 };
 
-std::string toJson(const google::protobuf::Message& message);
+using farm::toJson;
 // "user@host": who submits, as `alphorn status` shows it ($USER, else the password database).
 std::string submitterName();
 

@@ -1,12 +1,11 @@
 #include "coordinator/dashboard.h"
 
 #include "common/core/image.h"
+#include "common/farm/convert.h"
 #include "common/farm/rpc.h"
 #include "coordinator/dashboard_assets.h"
 #include "coordinator/log.h"
 #include "coordinator/state_db.h"
-
-#include <google/protobuf/util/json_util.h>
 
 #include <charconv>
 #include <chrono>
@@ -30,16 +29,6 @@ constexpr size_t kMaxHistoryPoints = 64;
 double monotonicSeconds() {
     return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
         .count();
-}
-
-// The same JSON as `alphorn ... --json`: every field, proto field names.
-std::string toJson(const google::protobuf::Message& message) {
-    std::string json;
-    google::protobuf::util::JsonPrintOptions options;
-    options.always_print_primitive_fields = true;
-    options.preserve_proto_field_names = true;
-    (void)google::protobuf::util::MessageToJsonString(message, &json, options);
-    return json;
 }
 
 std::string number(double value) {
@@ -366,7 +355,7 @@ void Dashboard::jobsJson(httplib::Response& response) {
     std::vector<v1::JobStatus> jobs = m_coordinator.listJobs(0);
     record(jobs);
     for (auto& job : jobs) *list.add_jobs() = std::move(job);
-    jsonAnswer(response, toJson(list));
+    jsonAnswer(response, farm::toJson(list));
 }
 
 void Dashboard::jobJson(const httplib::Request& request, httplib::Response& response) {
@@ -379,8 +368,8 @@ void Dashboard::jobJson(const httplib::Request& request, httplib::Response& resp
         history += std::string(history.empty() ? "" : ",") +
                    "{\"passes\":" + std::to_string(point.passes) +
                    ",\"relative_rmse\":" + number(point.relativeRmse) + "}";
-    jsonAnswer(response, "{\"job\":" + toJson(jobs.at(0)) + ",\"history\":[" + history +
-                             "],\"log\":" + toJson(m_coordinator.jobLog(jobId, after)) + "}");
+    jsonAnswer(response, "{\"job\":" + farm::toJson(jobs.at(0)) + ",\"history\":[" + history +
+                             "],\"log\":" + farm::toJson(m_coordinator.jobLog(jobId, after)) + "}");
 }
 
 void Dashboard::previewPng(const httplib::Request& request, httplib::Response& response) {
@@ -429,7 +418,7 @@ void Dashboard::workersJson(httplib::Response& response) {
         held += std::string(held.empty() ? "" : ",") + "\"" + std::to_string(workerId) + "\":[" +
                 unitsJson + "]";
     }
-    std::string json = toJson(list);
+    std::string json = farm::toJson(list);
     json.pop_back();  // the closing brace of the list's object
     jsonAnswer(response, json + ",\"held_units\":{" + held + "}}");
 }
@@ -439,7 +428,7 @@ void Dashboard::jobAction(const httplib::Request& request, httplib::Response& re
     const uint64_t jobId = numberParam(request, "id");
     if (action == "delete") {
         // The page asks before it sends this; a running job is cancelled, then deleted.
-        jsonAnswer(response, toJson(m_coordinator.deleteJob(jobId, true)));
+        jsonAnswer(response, farm::toJson(m_coordinator.deleteJob(jobId, true)));
         logInfo("dashboard.action", {field("action", action), field("job", jobId)});
         return;
     }
@@ -462,7 +451,7 @@ void Dashboard::jobAction(const httplib::Request& request, httplib::Response& re
         status = m_coordinator.setPriority(jobId, priority);
     }
     logInfo("dashboard.action", {field("action", action), field("job", jobId)});
-    jsonAnswer(response, "{\"job\":" + toJson(status) + "}");
+    jsonAnswer(response, "{\"job\":" + farm::toJson(status) + "}");
 }
 
 void Dashboard::workerAction(const httplib::Request& request, httplib::Response& response,
@@ -471,7 +460,7 @@ void Dashboard::workerAction(const httplib::Request& request, httplib::Response&
     const v1::WorkerInfo worker = m_coordinator.setWorkerDraining(workerId, draining);
     logInfo("dashboard.action",
             {field("action", draining ? "drain" : "undrain"), field("worker", workerId)});
-    jsonAnswer(response, "{\"worker\":" + toJson(worker) + "}");
+    jsonAnswer(response, "{\"worker\":" + farm::toJson(worker) + "}");
 }
 
 // ---- the estimate history ----------------------------------------------------------------------

@@ -1,5 +1,7 @@
 #include "common/farm/convert.h"
 
+#include <google/protobuf/util/json_util.h>
+
 namespace alphorn::farm {
 
 v1::BundleManifest toProto(const Bundle& bundle) {
@@ -56,6 +58,15 @@ const char* jobStateName(v1::JobState state) {
         default:
             return "unknown";
     }
+}
+
+std::string toJson(const google::protobuf::Message& message) {
+    std::string json;
+    google::protobuf::util::JsonPrintOptions options;
+    options.always_print_primitive_fields = true;
+    options.preserve_proto_field_names = true;
+    (void)google::protobuf::util::MessageToJsonString(message, &json, options);
+    return json;
 }
 
 }  // namespace alphorn::farm

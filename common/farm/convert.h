@@ -5,6 +5,8 @@
 #include "common/farm/bundle.h"
 #include "common/render/unit.h"
 
+#include <string>
+
 namespace alphorn::farm {
 
 v1::BundleManifest toProto(const Bundle& bundle);
@@ -14,5 +16,9 @@ v1::UnitSpec toProto(uint64_t jobId, uint32_t unitIndex, const RenderUnit& unit)
 RenderUnit fromProto(const v1::UnitSpec& spec);
 
 const char* jobStateName(v1::JobState state);
+
+// A message as JSON with every field, zero ones included, under its proto field name: what
+// `alphorn ... --json` prints and the dashboard's API answers.
+std::string toJson(const google::protobuf::Message& message);
 
 }  // namespace alphorn::farm

@@ -234,7 +234,10 @@ void BidirectionalIntegrator::connectToCamera(const Scene& scene,
                                               Splats& splats) const {
     const PathVertex& y = path[index];
     if (!y.connectible()) return;
-    if (index == 0 && y.delta) return;  // a point light is never seen by camera rays either
+    // A point light is never seen by camera rays either; an emitter camera paths can hit is
+    // left to them (misWeight gives this strategy nothing then: see vcm_mis.cpp), so neither is
+    // projected and shaded here only to be weighted zero.
+    if (index == 0 && (y.delta || passStrategies.hits)) return;
     const size_t edges = index + 1;
     if (m_maxDepth >= 0 && edges > size_t(m_maxDepth) + 1) return;
     const Camera& camera = *scene.camera();

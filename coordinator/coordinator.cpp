@@ -166,8 +166,9 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
         fail("filter border %d is invalid", row.filterBorder);
     const v1::JobSettings& settings = job.description.settings();
     job.filterBorder = row.filterBorder;
-    job.grid = farm::JobGrid(row.width, row.height, int(settings.tile_size()), settings.passes(),
-                             settings.passes_per_unit());
+    job.grid =
+        farm::JobGrid(TileGrid(row.width, row.height, int(settings.tile_size()), row.filterBorder),
+                      settings.passes(), settings.passes_per_unit());
     const uint32_t unitCount = job.grid.unitCount();
     std::vector<uint32_t> attempts(unitCount, 0);
     for (const UnitAttemptsRow& unit : m_store.unitAttempts(job.id))

@@ -79,11 +79,13 @@ TEST(TileGrid, IsTheTilesOfTheImageWithTheScenesBorder) {
 }
 
 // A crop gets exactly the tiles that can splat into it: those whose grown tile shares a pixel
-// with it, checked pixel by pixel.
+// with it, checked pixel by pixel. Tiles of 7 grown by 2: the first column's and row's end at 9,
+// the third's start at 12, so the region [9, 12)² touches those without sharing a pixel.
 TEST(TileGrid, TilesReachingAreThoseWhoseBlocksShareAPixelWithTheRegion) {
     const TileGrid grid(40, 30, 7, 2);
-    for (const Tile& region : {Tile{0, 0, 1, 1}, Tile{9, 9, 10, 10}, Tile{12, 5, 20, 6},
-                               Tile{39, 29, 40, 30}, Tile{0, 0, 40, 30}, Tile{16, 16, 17, 17}}) {
+    for (const Tile& region :
+         {Tile{0, 0, 1, 1}, Tile{9, 9, 10, 10}, Tile{12, 5, 20, 6}, Tile{39, 29, 40, 30},
+          Tile{0, 0, 40, 30}, Tile{16, 16, 17, 17}, Tile{9, 9, 12, 12}}) {
         std::vector<Tile> expected;
         for (const Tile& tile : grid.tiles()) {
             const Tile grown = grownTile(tile, grid.border());

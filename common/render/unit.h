@@ -75,7 +75,8 @@ struct RenderCounters {
 std::vector<std::shared_ptr<const PassData>> preparePasses(const Scene& scene, uint64_t seed,
                                                            uint32_t begin, uint32_t end);
 
-// Renders `unit` and adds its samples into `out` (which must come from makeUnitBlock).
+// Renders `unit` and adds its samples into `out` (the unit's block: makeUnitBlock, or the block
+// of the scene's TileGrid).
 // passData[i] belongs to pass unit.passBegin + i. Returns false if cancelled midway, in which
 // case `out` holds a partial result that must be discarded.
 bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,

@@ -228,6 +228,8 @@ void Coordinator::beginStop() {
     {
         std::lock_guard lock(m_mutex);
         m_stopping = true;
+        // Watching clients are told to go (and come back to the next process) at once.
+        for (auto& [id, job] : m_jobs) job->changes->close();
     }
     m_workAvailable.notify_all();  // long-polling AcquireWork calls return at once
 }
@@ -238,6 +240,7 @@ void Coordinator::stop() {
         if (m_stopped) return;
         m_stopped = true;
         m_stopping = true;
+        for (auto& [id, job] : m_jobs) job->changes->close();
     }
     m_backgroundWake.notify_all();
     m_workAvailable.notify_all();
@@ -312,6 +315,7 @@ void Coordinator::pruneFinishedJobs(double wallNow) {
             if (job.state != v1::JOB_STATE_RUNNING && !job.completing &&
                 retention.expired(job.finishedAt, wallNow)) {
                 removed.push_back(job.id);
+                job.changes->close();
                 m_scheduler->removeJob(job.id);
                 it = m_jobs.erase(it);
                 continue;
@@ -567,9 +571,21 @@ v1::JobStatus Coordinator::cancel(uint64_t jobId) {
     return statusLocked(job);
 }
 
+void Coordinator::changedLocked(Job& job) {
+    job.changes->notify(job.state != v1::JOB_STATE_RUNNING);
+}
+
 void Coordinator::eventLocked(Job& job, v1::JobEventKind kind, std::string message,
                               uint64_t workerId, std::optional<uint32_t> unitIndex) {
     job.events.add(m_clock->wallSeconds(), kind, std::move(message), workerId, unitIndex);
+    changedLocked(job);
+}
+
+std::shared_ptr<const ChangeSignal> Coordinator::changeSignal(uint64_t jobId) {
+    std::lock_guard lock(m_mutex);
+    Job& job = jobLocked(jobId);
+    if (m_stopping) job.changes->close();
+    return job.changes;
 }
 
 void Coordinator::saveEventLogsLocked(std::optional<uint64_t> jobId) {
@@ -771,6 +787,7 @@ v1::DeleteJobResponse Coordinator::deleteJob(uint64_t jobId, bool cancelRunning)
         // Should this fail, the job is still there (cancelled), as the store says.
         m_store.removeJob(jobId);
         job.deleted = true;
+        job.changes->close();
         for (const v1::BundleFile& file : job.description.bundle().files())
             jobBlobs.insert(file.sha256());
         m_scheduler->removeJob(jobId);
@@ -1020,6 +1037,8 @@ v1::HeartbeatResponse Coordinator::heartbeat(const v1::HeartbeatRequest& request
         if (!m_scheduler->renew(request.worker_id(), leaseId, held ? &*held : nullptr)) {
             response.add_drop_lease_ids(leaseId);
         } else if (m_scheduler->leaseCount(request.worker_id()) > leasedBefore) {
+            if (auto job = m_jobs.find(held->jobId); job != m_jobs.end())
+                changedLocked(*job->second);
             logInfo("unit.readopted",
                     {field("job", held->jobId), field("unit", held->unitIndex),
                      field("worker", request.worker_id()), field("lease", leaseId)});
@@ -1129,6 +1148,7 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
         // dropped. Results are idempotent by unit id: a unit is merged at most once.
         if (!m_scheduler->mayMerge(jobId, unitIndex, leaseId)) {
             ++job.discarded;
+            changedLocked(job);
             logInfo("result.discarded",
                     {field("job", jobId), field("unit", unitIndex),
                      field("worker", header.worker_id()), field("lease", leaseId)});
@@ -1165,6 +1185,7 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
         // Checked again: the job or the lease may have changed while decompressing.
         if (!m_scheduler->markMerged(jobId, unitIndex, leaseId)) {
             ++job.discarded;
+            changedLocked(job);
             return v1::RESULT_DISCARDED;
         }
         const uint32_t leaseLimit = job.film->leaseLimit();
@@ -1242,6 +1263,7 @@ void Coordinator::writeJobCheckpoint(Job& job, const JobFilm::Copy& copy) {
     } catch (const std::exception& e) {
         std::lock_guard lock(m_mutex);
         job.film->checkpointFailed(e.what());
+        changedLocked(job);
         throw;
     }
     std::lock_guard lock(m_mutex);

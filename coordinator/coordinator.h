@@ -15,6 +15,7 @@
 #include "common/farm/job_grid.h"
 #include "common/render/film.h"
 #include "coordinator/blob_store.h"
+#include "coordinator/change_signal.h"
 #include "coordinator/clock.h"
 #include "coordinator/event_log.h"
 #include "coordinator/farm_error.h"
@@ -121,6 +122,9 @@ class Coordinator {
     // The merged film: a finished job's final film, or (preview) whatever is merged so far.
     ImageSnapshot snapshot(uint64_t jobId, bool preview);
     std::string jobDirectory(uint64_t jobId) const;
+    // The job's change signal (WatchJob waits on it); throws NotFound for an unknown job. It is
+    // closed when the job is deleted or removed and when the coordinator begins to stop.
+    std::shared_ptr<const ChangeSignal> changeSignal(uint64_t jobId);
 
     // Worker side.
     uint64_t registerWorker(const v1::RegisterRequest& request);
@@ -178,6 +182,7 @@ class Coordinator {
         uint64_t raysMergedThisRun = 0;
         EventLog events;
         bool deleted = false;  // removed by a client; no checkpoint may be written any more
+        std::shared_ptr<ChangeSignal> changes = std::make_shared<ChangeSignal>();
     };
     struct WorkerRecord {
         v1::WorkerInfo info;
@@ -212,7 +217,11 @@ class Coordinator {
     void endJobLocked(Job& job, v1::JobState state, const std::string& error);
     WorkerRecord* touchWorkerLocked(uint64_t workerId);
     v1::WorkerInfo workerInfoLocked(uint64_t workerId, const WorkerRecord& worker) const;
-    // Appends to the job's event log (at the clock's wall time).
+    // Something the job's status shows changed: bumps its change signal. Every event is such a
+    // change, so eventLocked() calls it; the other changes (a discarded result, a failed
+    // checkpoint, a re-adopted lease) call it themselves.
+    void changedLocked(Job& job);
+    // Appends to the job's event log (at the clock's wall time) and signals the change.
     void eventLocked(Job& job, v1::JobEventKind kind, std::string message, uint64_t workerId = 0,
                      std::optional<uint32_t> unitIndex = std::nullopt);
     // Stores the event logs that changed (every job, or one); a failure is logged, not thrown:

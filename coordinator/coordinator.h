@@ -1,12 +1,20 @@
 // The coordinator: a thin façade over its parts, independent of gRPC. It holds them together
-// under one lock and runs the background work (lease expiry, checkpoints, retention):
-//   admission.h        a submitted job is checked and completed with defaults
-//   job_store.h        jobs, failed attempts, workers and the lease key are stored (SQLite)
-//   lease_scheduler.h  units are queued, leased, renewed, fenced, failed and re-adopted
-//   job_film.h         results are merged into the job's film, checkpointed and read back
+// under one lock and runs the background work (lease expiry, checkpoints, retention). Where each
+// step of a job happens:
+//   admission.h        admitted: a submitted job is checked and completed with defaults
+//   job_store.h        stored: jobs, failed attempts, workers and the lease key (SQLite)
+//   lease_scheduler.h  leased: units are queued, leased, renewed, fenced, failed and re-adopted
+//   job_film.h         merged and checkpointed: results go into the job's film, which is
+//                      written to its checkpoint file (checkpoint.h) and read back
+//   worker_registry.h  the workers: registration, liveness, drains, what each merged
 //   retention.h        ended jobs, unused blobs and silent workers are forgotten
 //   event_log.h        each job's bounded log of what happened to it
-// The gRPC services (services.h) translate calls into these methods.
+//   change_signal.h    each job's change signal, which WatchJob waits on
+// The façade's own code is in three files: coordinator.cpp (the lock, the background work, and
+// the calls of submission, leasing, merging and checkpointing), recovery.cpp (taking up the
+// state directory at start) and job_control.cpp (cancel, retry, pause, priority, delete, drain,
+// and removing what the keep time lets go). The gRPC services (services.h) translate calls into
+// these methods.
 #pragma once
 
 #include "alphorn/v1/client_service.pb.h"
@@ -23,6 +31,7 @@
 #include "coordinator/job_store.h"
 #include "coordinator/lease_scheduler.h"
 #include "coordinator/state_lock.h"
+#include "coordinator/worker_registry.h"
 
 #include <chrono>
 #include <condition_variable>
@@ -105,16 +114,12 @@ class Coordinator {
     // A draining worker is given no new unit (it finishes those it holds). Throws UnknownWorker.
     v1::WorkerInfo setWorkerDraining(uint64_t workerId, bool draining);
     // The units workers hold right now, by worker id (the dashboard's "current unit").
-    struct HeldUnit {
-        uint64_t jobId = 0;
-        uint32_t unitIndex = 0;
-    };
+    using HeldUnit = WorkerRegistry::HeldUnit;
     std::map<uint64_t, std::vector<HeldUnit>> heldUnits() const;
     // Seconds between a worker's heartbeats (told at registration).
-    double heartbeatIntervalSeconds() const { return std::max(0.1, m_options.leaseSeconds / 4); }
-    // Silence after which a worker is listed SILENT: two heartbeat intervals, at least 3 s (an
-    // idle worker's long poll lasts 2 s).
-    double silentAfterSeconds() const { return std::max(3.0, 2 * heartbeatIntervalSeconds()); }
+    double heartbeatIntervalSeconds() const { return m_workers->heartbeatIntervalSeconds(); }
+    // Silence after which a worker is listed SILENT (WorkerRegistry::silentAfterSeconds).
+    double silentAfterSeconds() const { return m_workers->silentAfterSeconds(); }
     struct ImageSnapshot {
         FilmBlock film;
         v1::JobStatus status;
@@ -184,17 +189,8 @@ class Coordinator {
         bool deleted = false;  // removed by a client; no checkpoint may be written any more
         std::shared_ptr<ChangeSignal> changes = std::make_shared<ChangeSignal>();
     };
-    struct WorkerRecord {
-        v1::WorkerInfo info;
-        double lastContactWall = 0;  // wall clock of the last call, or of this process's start
-        bool draining = false;       // drained by a client (stored)
-        bool exiting = false;        // said it is stopping (SIGTERM)
-        bool left = false;           // said it exits now
-        // Its merged units in this process: samples, rays and its own render seconds.
-        uint64_t samples = 0, rays = 0;
-        double renderSeconds = 0;
-    };
-
+    static std::string mebibytes(uint64_t bytes);
+    // Restores the workers and jobs of the state directory (recovery.cpp).
     void resume();
     // Rebuilds one job from its stored row and checkpoint; throws Error on a damaged record.
     void resumeJob(Job& job, const JobRow& row);
@@ -215,8 +211,6 @@ class Coordinator {
     void recordFailureLocked(Job& job, const LeaseScheduler::Failure& failure,
                              const std::string& message, uint64_t workerId);
     void endJobLocked(Job& job, v1::JobState state, const std::string& error);
-    WorkerRecord* touchWorkerLocked(uint64_t workerId);
-    v1::WorkerInfo workerInfoLocked(uint64_t workerId, const WorkerRecord& worker) const;
     // Something the job's status shows changed: bumps its change signal. Every event is such a
     // change, so eventLocked() calls it; the other changes (a discarded result, a failed
     // checkpoint, a re-adopted lease) call it themselves.
@@ -247,7 +241,7 @@ class Coordinator {
     // Jobs deleted by a client, freed by the next tick(): the background thread may still hold
     // a pointer to one from the tick in progress (checkpointDirtyJobs).
     std::vector<std::unique_ptr<Job>> m_deletedJobs;
-    std::map<uint64_t, WorkerRecord> m_workers;
+    std::unique_ptr<WorkerRegistry> m_workers;
     std::unordered_map<std::string, double> m_blobsTouchedAt;  // sha256 -> wall clock
     uint64_t m_memoryInUse = 0;                                // sum of running jobs' memoryBytes
     double m_nextCheckpoint = 0, m_nextPrune = 0;              // monotonic

@@ -1,7 +1,7 @@
 // Coordinator: what clients do to jobs and workers once submitted (cancel, retry, pause,
 // priority, delete, a job's log, drain), and the removal of what the keep time lets go. Each
-// control is stored first and then applied to the scheduler and the job, and written to the
-// job's event log.
+// control is recorded in the store and applied to the scheduler and the job, and a job's is
+// written to its event log.
 #include "coordinator/coordinator.h"
 
 #include "common/farm/convert.h"

@@ -246,7 +246,7 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
                                           job->description.settings().adaptive());
     job->film->startEmpty();
 
-    std::lock_guard lock(m_mutex);
+    std::unique_lock lock(m_mutex);
     const uint64_t id = job->id;
     const v1::JobSettings& settings = job->description.settings();
     m_scheduler->addJob(id, settings.priority(), grid, {}, {}, true);
@@ -267,9 +267,11 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     for (const v1::BundleFile& file : job->description.bundle().files())
         m_blobsTouchedAt.erase(file.sha256());
     m_jobs[id] = std::move(job);
-    saveEventLogsLocked(id);
     m_workAvailable.notify_all();
-    return statusLocked(*m_jobs[id]);
+    const v1::JobStatus status = statusLocked(*m_jobs[id]);
+    lock.unlock();
+    saveChangedEventLogs(id);
+    return status;
 }
 
 Coordinator::Job& Coordinator::jobLocked(uint64_t jobId) {
@@ -405,13 +407,13 @@ void Coordinator::saveEventLogsLocked(std::optional<uint64_t> jobId) {
     }
 }
 
-void Coordinator::saveChangedEventLogs() {
-    // Copied under the lock, written without it: many jobs' logs take many fsyncs.
+void Coordinator::saveChangedEventLogs(std::optional<uint64_t> jobId) {
+    // Copied under the lock, written without it: each save waits for the disk.
     std::vector<std::pair<uint64_t, v1::JobEventLog>> changed;
     {
         std::lock_guard lock(m_mutex);
         for (auto& [id, job] : m_jobs) {
-            if (!job->events.changed()) continue;
+            if ((jobId && id != *jobId) || !job->events.changed()) continue;
             changed.emplace_back(id, job->events.record());
             job->events.markSaved();
         }

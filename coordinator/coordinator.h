@@ -219,10 +219,10 @@ class Coordinator {
     void eventLocked(Job& job, v1::JobEventKind kind, std::string message, uint64_t workerId = 0,
                      std::optional<uint32_t> unitIndex = std::nullopt);
     // Stores the event logs that changed (every job, or one); a failure is logged, not thrown:
-    // a log is worth less than the work it records.
+    // a log is worth less than the work it records. Under m_mutex, for a job's end.
     void saveEventLogsLocked(std::optional<uint64_t> jobId = std::nullopt);
-    // The same for every job, writing without m_mutex (the checkpoint rounds and stop()).
-    void saveChangedEventLogs();
+    // The same, writing without m_mutex (submissions, controls, checkpoint rounds, stop()).
+    void saveChangedEventLogs(std::optional<uint64_t> jobId = std::nullopt);
     // The job, refusing with FailedPrecondition unless it is running (for pause and priority).
     Job& runningJobLocked(uint64_t jobId, const char* action, const char* done);
 

@@ -36,38 +36,66 @@ Coordinator::Job& Coordinator::runningJobLocked(uint64_t jobId, const char* acti
     return job;
 }
 
+// Pause and priority write the store without m_mutex: a store write waits for the disk
+// (milliseconds), and every lease and merge would wait with it. m_controlMutex keeps the controls
+// in the order they were stored and keeps deleteJob() and pruneFinishedJobs() from removing the
+// job meanwhile. As before, the change is stored before it is applied and acknowledged; a job
+// that ended in between gets it too (stored and in memory alike: a retry runs it so).
 v1::JobStatus Coordinator::setPaused(uint64_t jobId, bool paused) {
-    std::lock_guard lock(m_mutex);
-    Job& job = runningJobLocked(jobId, paused ? "pause" : "resume", paused ? "paused" : "resumed");
-    if (m_scheduler->paused(jobId) == paused) return statusLocked(job);
+    std::lock_guard control(m_controlMutex);
+    {
+        std::lock_guard lock(m_mutex);
+        Job& job =
+            runningJobLocked(jobId, paused ? "pause" : "resume", paused ? "paused" : "resumed");
+        if (m_scheduler->paused(jobId) == paused) return statusLocked(job);
+    }
     m_store.setJobPaused(jobId, paused);
-    m_scheduler->setPaused(jobId, paused);
-    const LeaseScheduler::JobLeases leases = m_scheduler->jobLeases(jobId);
-    eventLocked(job, paused ? v1::JOB_EVENT_PAUSED : v1::JOB_EVENT_RESUMED,
-                paused ? absl::StrFormat("no new leases; %u units out may finish", leases.leased)
-                       : std::string("leasing again"));
-    saveEventLogsLocked(jobId);
-    logInfo(paused ? "job.paused" : "job.resumed_by_client", {field("job", jobId)});
-    if (!paused) m_workAvailable.notify_all();
-    return statusLocked(job);
+    v1::JobStatus status;
+    {
+        std::lock_guard lock(m_mutex);
+        Job& job = jobLocked(jobId);
+        m_scheduler->setPaused(jobId, paused);
+        const LeaseScheduler::JobLeases leases = m_scheduler->jobLeases(jobId);
+        eventLocked(job, paused ? v1::JOB_EVENT_PAUSED : v1::JOB_EVENT_RESUMED,
+                    paused
+                        ? absl::StrFormat("no new leases; %u units out may finish", leases.leased)
+                        : std::string("leasing again"));
+        logInfo(paused ? "job.paused" : "job.resumed_by_client", {field("job", jobId)});
+        if (!paused) m_workAvailable.notify_all();
+        status = statusLocked(job);
+    }
+    saveChangedEventLogs(jobId);
+    return status;
 }
 
 v1::JobStatus Coordinator::setPriority(uint64_t jobId, int32_t priority) {
-    std::lock_guard lock(m_mutex);
-    Job& job = runningJobLocked(jobId, "change the priority of", "given a new priority");
-    const int32_t before = job.description.settings().priority();
-    if (before == priority) return statusLocked(job);
-    v1::JobDescription changed = job.description;
+    std::lock_guard control(m_controlMutex);
+    v1::JobDescription changed;
+    int32_t before = 0;
+    {
+        std::lock_guard lock(m_mutex);
+        Job& job = runningJobLocked(jobId, "change the priority of", "given a new priority");
+        before = job.description.settings().priority();
+        if (before == priority) return statusLocked(job);
+        changed = job.description;
+    }
     changed.mutable_settings()->set_priority(priority);
     m_store.setJobDescription(jobId, changed);
-    job.description = std::move(changed);
-    m_scheduler->setPriority(jobId, priority);
-    eventLocked(job, v1::JOB_EVENT_PRIORITY_CHANGED,
-                absl::StrFormat("priority %d -> %d", before, priority));
-    saveEventLogsLocked(jobId);
-    logInfo("job.priority", {field("job", jobId), field("from", before), field("to", priority)});
-    m_workAvailable.notify_all();
-    return statusLocked(job);
+    v1::JobStatus status;
+    {
+        std::lock_guard lock(m_mutex);
+        Job& job = jobLocked(jobId);
+        job.description = std::move(changed);
+        m_scheduler->setPriority(jobId, priority);
+        eventLocked(job, v1::JOB_EVENT_PRIORITY_CHANGED,
+                    absl::StrFormat("priority %d -> %d", before, priority));
+        logInfo("job.priority",
+                {field("job", jobId), field("from", before), field("to", priority)});
+        m_workAvailable.notify_all();
+        status = statusLocked(job);
+    }
+    saveChangedEventLogs(jobId);
+    return status;
 }
 
 v1::JobStatus Coordinator::retry(uint64_t jobId) {
@@ -112,7 +140,7 @@ v1::JobStatus Coordinator::retry(uint64_t jobId) {
                                                  field("action", "rendering it again")});
         }
     }
-    std::lock_guard lock(m_mutex);
+    std::unique_lock lock(m_mutex);
     auto it = m_jobs.find(jobId);
     if (it == m_jobs.end() || it->second.get() != job)
         throw FarmError(Kind::NotFound, absl::StrFormat("no job %u (deleted)", jobId));
@@ -151,12 +179,14 @@ v1::JobStatus Coordinator::retry(uint64_t jobId) {
                 absl::StrFormat("was %s; %u of %u units kept from its checkpoint, the rest "
                                 "queued with their attempts forgotten",
                                 farm::jobStateName(before), job->restored, job->grid.unitCount()));
-    saveEventLogsLocked(jobId);
     logInfo("job.retried", {field("job", jobId), field("units_kept", job->restored),
                             field("units_total", job->grid.unitCount())});
     // Should every unit be in the checkpoint already, the next checkpoint round ends the job.
     m_workAvailable.notify_all();
-    return statusLocked(*job);
+    const v1::JobStatus status = statusLocked(*job);
+    lock.unlock();
+    saveChangedEventLogs(jobId);
+    return status;
 }
 
 v1::DeleteJobResponse Coordinator::deleteJob(uint64_t jobId, bool cancelRunning) {

@@ -1,3 +1,6 @@
+// Coordinator: construction and the background work, and the calls by which a job is submitted,
+// reported on, leased, merged and checkpointed. Taking up the state directory at start is in
+// recovery.cpp; the controls of jobs and workers, and retention, in job_control.cpp.
 #include "coordinator/coordinator.h"
 
 #include "common/farm/convert.h"
@@ -5,9 +8,7 @@
 #include "common/farm/sha256.h"
 #include "common/photon/radius_schedule.h"
 #include "coordinator/admission.h"
-#include "coordinator/checkpoint.h"
 #include "coordinator/log.h"
-#include "coordinator/retention.h"
 
 #include <absl/strings/str_replace.h>
 #include <openssl/rand.h>

@@ -76,7 +76,8 @@ class Coordinator {
 
     // Starts the background thread that calls tick() every 200 ms.
     void start();
-    // Makes waiting AcquireWork calls return, so the server can shut down quickly.
+    // Makes waiting AcquireWork calls return and closes every job's change signal (WatchJob
+    // streams end), so the server can shut down quickly.
     void beginStop();
     // Stops the background thread and checkpoints every running job (clean shutdown loses nothing).
     void stop();
@@ -98,7 +99,7 @@ class Coordinator {
     v1::JobStatus cancel(uint64_t jobId);
     std::vector<v1::WorkerInfo> listWorkers(bool includeDead);
 
-    // Job and worker control. Each throws FarmError (NotFound for an unknown job,
+    // Job and worker control (job_control.cpp). Each throws FarmError (NotFound for an unknown job,
     // FailedPrecondition for a change the job's state does not allow, with the reason) and
     // records the change durably and in the job's event log.
     // Runs a failed or cancelled job again under its id: units in its checkpoint stay merged,
@@ -187,6 +188,7 @@ class Coordinator {
         uint64_t raysMergedThisRun = 0;
         EventLog events;
         bool deleted = false;  // removed by a client; no checkpoint may be written any more
+        // Bumped on every change its status shows (changedLocked); WatchJob waits on it.
         std::shared_ptr<ChangeSignal> changes = std::make_shared<ChangeSignal>();
     };
     static std::string mebibytes(uint64_t bytes);
@@ -232,8 +234,9 @@ class Coordinator {
     JobStore m_store;
     BlobStore m_blobs;
     mutable std::mutex m_mutex;
-    // Taken before m_mutex by retry() and deleteJob(), which do file work without m_mutex, and
-    // by pruneFinishedJobs(), which must not free a job retry() holds.
+    // Taken before m_mutex by the job controls (pause, priority, retry, delete), which write the
+    // store or files without m_mutex, and by pruneFinishedJobs(), which must not free a job a
+    // control holds.
     std::mutex m_controlMutex;
     std::condition_variable m_workAvailable;
     std::unique_ptr<LeaseScheduler> m_scheduler;
@@ -241,7 +244,7 @@ class Coordinator {
     // Jobs deleted by a client, freed by the next tick(): the background thread may still hold
     // a pointer to one from the tick in progress (checkpointDirtyJobs).
     std::vector<std::unique_ptr<Job>> m_deletedJobs;
-    std::unique_ptr<WorkerRegistry> m_workers;
+    std::unique_ptr<WorkerRegistry> m_workers;  // made after m_scheduler, which it informs
     std::unordered_map<std::string, double> m_blobsTouchedAt;  // sha256 -> wall clock
     uint64_t m_memoryInUse = 0;                                // sum of running jobs' memoryBytes
     double m_nextCheckpoint = 0, m_nextPrune = 0;              // monotonic

@@ -25,6 +25,7 @@
 #include <atomic>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <mutex>
 #include <thread>
 
@@ -32,9 +33,9 @@ using namespace alphorn;
 using Clock = std::chrono::steady_clock;
 
 int main(int argc, char** argv) {
-    if (argc != 7 && argc != 8) {
+    if (argc < 7 || argc > 10) {
         std::cerr << "usage: bench_farm_load ADDR CLIENT_TOKEN_FILE WORKER_TOKEN_FILE SCENE.xml "
-                     "WORKERS PASSES [CLIENT_CALLS_PER_SECOND]\n";
+                     "WORKERS PASSES [CLIENT_CALLS_PER_SECOND [TILE_SIZE [film|png]]]\n";
         return 2;
     }
     const std::string address = argv[1];
@@ -43,14 +44,35 @@ int main(int argc, char** argv) {
     const std::string scenePath = argv[4];
     const int workers = std::stoi(argv[5]);
     const uint32_t passes = static_cast<uint32_t>(std::stoul(argv[6]));
-    const double clientCallsPerSecond = argc == 8 ? std::stod(argv[7]) : 0.0;
+    const double clientCallsPerSecond = argc >= 8 ? std::stod(argv[7]) : 0.0;
+    // 1-pixel tiles by default: the most units, the smallest results. Larger tiles on a large
+    // image make a large film with few units (what a preview of a real job copies).
+    const int tileSize = argc >= 9 ? std::stoi(argv[8]) : 1;
+    // The previews' format: the raw film (default), or a PNG, whose transfer costs less CPU
+    // beside the coordinator on a small machine than a large film's.
+    const v1::ImageFormat previewFormat =
+        argc == 10 && std::string(argv[9]) == "png" ? v1::IMAGE_FORMAT_PNG : v1::IMAGE_FORMAT_FILM;
 
-    // The result every unit returns: an empty block of the unit's shape (1-pixel tiles).
+    // The result every unit returns: an empty block of the unit's shape, made once per shape.
     auto scene = loadScene(scenePath);
-    const FilmBlock emptyBlock = makeUnitBlock(*scene, Tile{0, 0, 1, 1});
-    const std::string compressed = farm::compressFilm(emptyBlock);
-    const std::string compressedSha = farm::sha256Hex(compressed);
-    const int border = -emptyBlock.x0();
+    struct EmptyResult {
+        FilmBlock block;
+        std::string compressed, sha256;
+    };
+    std::mutex resultsMutex;
+    std::map<std::pair<int, int>, EmptyResult> emptyResults;
+    auto emptyResult = [&](const v1::UnitSpec& unit) -> const EmptyResult& {
+        std::lock_guard lock(resultsMutex);
+        const Tile tile{unit.x0(), unit.y0(), unit.x1(), unit.y1()};
+        auto [it, added] = emptyResults.try_emplace({tile.width(), tile.height()}, EmptyResult{});
+        if (added) {
+            it->second.block = makeUnitBlock(*scene, Tile{0, 0, tile.width(), tile.height()});
+            it->second.compressed = farm::compressFilm(it->second.block);
+            it->second.sha256 = farm::sha256Hex(it->second.compressed);
+        }
+        return it->second;
+    };
+    const int border = -makeUnitBlock(*scene, Tile{0, 0, 1, 1}).x0();
 
     std::vector<std::shared_ptr<grpc::Channel>> channels;
     for (int i = 0; i < 4; ++i) {
@@ -78,7 +100,7 @@ int main(int argc, char** argv) {
     v1::SubmitJobRequest submit;
     *submit.mutable_bundle() = farm::toProto(bundle);
     submit.mutable_settings()->set_passes(passes);
-    submit.mutable_settings()->set_tile_size(1);
+    submit.mutable_settings()->set_tile_size(tileSize);
     submit.mutable_settings()->set_name("farm-load");
     v1::SubmitJobResponse submitted;
     grpc::Status status = client->SubmitJob(
@@ -126,11 +148,12 @@ int main(int argc, char** argv) {
                 chunk.set_unit_index(lease.unit().unit_index());
                 chunk.set_block_x0(lease.unit().x0() - border);
                 chunk.set_block_y0(lease.unit().y0() - border);
-                chunk.set_block_width(emptyBlock.width());
-                chunk.set_block_height(emptyBlock.height());
-                chunk.set_compressed_size(compressed.size());
-                chunk.set_compressed_sha256(compressedSha);
-                chunk.set_data(compressed);
+                const EmptyResult& result = emptyResult(lease.unit());
+                chunk.set_block_width(result.block.width());
+                chunk.set_block_height(result.block.height());
+                chunk.set_compressed_size(result.compressed.size());
+                chunk.set_compressed_sha256(result.sha256);
+                chunk.set_data(result.compressed);
                 auto context = farm::makeContext(workerToken, std::chrono::seconds(30));
                 v1::ReportResultResponse response;
                 auto writer = stub->ReportResult(context.get(), &response);
@@ -158,7 +181,7 @@ int main(int argc, char** argv) {
                     v1::GetImageRequest request;
                     request.set_job_id(jobId);
                     request.set_preview(true);
-                    request.set_format(v1::IMAGE_FORMAT_FILM);
+                    request.set_format(previewFormat);
                     auto context = farm::makeContext(clientToken, std::chrono::seconds(30));
                     auto reader = client->GetImage(context.get(), request);
                     v1::ImageChunk chunk;

@@ -2,7 +2,9 @@
 # The coordinator's lock under load: bench_farm_load against coordinator binaries taking turns,
 # round after round, each run on a fresh state directory, so that the machine's load drifts
 # alike over every variant. A variant is BINARY:CLIENT_CALLS_PER_SECOND.
-# Usage: bench/farm_lock_bench.sh BUILD_DIR SCENE.xml WORKERS PASSES ROUNDS VARIANT...
+# Usage: [TILE_SIZE=N [PREVIEW_FORMAT=film|png]] bench/farm_lock_bench.sh BUILD_DIR SCENE.xml WORKERS PASSES ROUNDS VARIANT...
+# (TILE_SIZE: the job's tile size, 1 unless set; PREVIEW_FORMAT: film unless set; see
+# bench_farm_load.)
 # Prints each run's bench_farm_load lines prefixed by the variant, then per variant the medians
 # over the rounds of the lease and result p99 and of the units per second, and their ratios to
 # the first variant's.
@@ -37,7 +39,7 @@ for round in $(seq "$rounds"); do
         coordinator=$!
         for _ in $(seq 100); do [[ -s $work/port ]] && break; sleep 0.05; done
         "$build/bench/bench_farm_load" "127.0.0.1:$(cat "$work/port")" "$work/client.token" \
-            "$work/worker.token" "$scene" "$workers" "$passes" "$calls" |
+            "$work/worker.token" "$scene" "$workers" "$passes" "$calls" "${TILE_SIZE:-1}" "${PREVIEW_FORMAT:-film}" |
             sed "s|^|$variant round $round: |" | tee -a "$work/results"
         kill "$coordinator"
         wait "$coordinator" || true

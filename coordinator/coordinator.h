@@ -126,6 +126,8 @@ class Coordinator {
         v1::JobStatus status;
     };
     // The merged film: a finished job's final film, or (preview) whatever is merged so far.
+    // The film is copied in bands of rows, each under the lock: a running job's preview may
+    // hold a unit merged while it was copied in some rows and not in others.
     ImageSnapshot snapshot(uint64_t jobId, bool preview);
     std::string jobDirectory(uint64_t jobId) const;
     // The job's change signal (WatchJob waits on it); throws NotFound for an unknown job. It is
@@ -196,6 +198,9 @@ class Coordinator {
     void resume();
     // Rebuilds one job from its stored row and checkpoint; throws Error on a damaged record.
     void resumeJob(Job& job, const JobRow& row);
+    // Copies `source`, the film of job `jobId`, into `target` (its shape) one band of rows
+    // per lock hold; false when the job released that film meanwhile.
+    bool copyFilmInBands(uint64_t jobId, const JobFilm* source, FilmBlock& target);
     void backgroundLoop();
     void expireLeases();
     void checkpointDirtyJobs();

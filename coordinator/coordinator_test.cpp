@@ -516,6 +516,38 @@ TEST_F(CoordinatorJob, JobsBeyondTheMemoryBudgetAreRefused) {
     EXPECT_NO_THROW(coordinator.submit(request));
 }
 
+// A preview copies the job's film in bands of rows (about 1 MiB each), one lock hold per band:
+// the copy of a film of several bands must still be the whole film, every row once.
+TEST_F(CoordinatorJob, APreviewOfAFilmOfSeveralBandsIsTheWholeFilm) {
+    // 192 x 128 pixels at 128 bytes: 3 MiB, four bands of 42, 42, 42 and 2 rows.
+    std::ofstream(m_dir / "scene/s.xml") << R"(<scene>
+  <integrator type="normals"/>
+  <camera type="perspective">
+    <transform name="toWorld"><lookat origin="3, 2, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <integer name="width" value="192"/><integer name="height" value="128"/>
+  </camera>
+  <mesh type="obj"><string name="filename" value="sphere.obj"/></mesh>
+</scene>)";
+    Coordinator coordinator(m_options);
+    const v1::JobStatus status = coordinator.submit(upload(coordinator, 2));
+    const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+    FilmBlock expected(0, 0, 192, 128);
+    for (uint32_t unit = 0; unit + 1 < status.units_total(); ++unit) {
+        const v1::AcquireWorkResponse lease =
+            coordinator.acquire(worker, std::chrono::steady_clock::now());
+        ASSERT_TRUE(lease.has_work());
+        std::string compressed;
+        const v1::ResultChunk header = render(lease, worker, compressed);
+        ASSERT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
+        FilmBlock block(header.block_x0(), header.block_y0(), header.block_width(),
+                        header.block_height());
+        farm::decompressFilm(compressed, block);
+        expected.add(block);
+    }
+    ASSERT_EQ(coordinator.listJobs(status.job_id()).at(0).state(), v1::JOB_STATE_RUNNING);
+    EXPECT_EQ(coordinator.snapshot(status.job_id(), true).film.serialize(), expected.serialize());
+}
+
 // A final checkpoint that cannot be written (here: the job's directory replaced by a file, which
 // fails for root too) leaves the job running with the error shown, never "done" without its film
 // on disk and never stuck: the next attempt, or a graceful stop, finishes it.

@@ -1,8 +1,13 @@
 // Coordinator capacity: many simulated workers (threads that lease units and return empty,
 // correctly shaped results without rendering) against a real alphorn-coordinator. Prints
 // completed units per second and lease (AcquireWork) latency percentiles.
+// With CLIENT_CALLS_PER_SECOND > 0 a client thread meanwhile takes turns fetching the job's
+// preview film (GetImage, as a dashboard or `alphorn fetch --preview` does) and changing its
+// priority (SetJobPriority, a store write), the client calls that take the coordinator's lock for
+// longer than a lease does; their latencies are printed too.
 //
 //   bench_farm_load ADDR CLIENT_TOKEN_FILE WORKER_TOKEN_FILE SCENE.xml WORKERS PASSES
+//                   [CLIENT_CALLS_PER_SECOND]
 #include "alphorn/v1/client_service.grpc.pb.h"
 #include "alphorn/v1/worker_service.grpc.pb.h"
 #include "common/farm/bundle.h"
@@ -27,9 +32,9 @@ using namespace alphorn;
 using Clock = std::chrono::steady_clock;
 
 int main(int argc, char** argv) {
-    if (argc != 7) {
+    if (argc != 7 && argc != 8) {
         std::cerr << "usage: bench_farm_load ADDR CLIENT_TOKEN_FILE WORKER_TOKEN_FILE SCENE.xml "
-                     "WORKERS PASSES\n";
+                     "WORKERS PASSES [CLIENT_CALLS_PER_SECOND]\n";
         return 2;
     }
     const std::string address = argv[1];
@@ -38,6 +43,7 @@ int main(int argc, char** argv) {
     const std::string scenePath = argv[4];
     const int workers = std::stoi(argv[5]);
     const uint32_t passes = static_cast<uint32_t>(std::stoul(argv[6]));
+    const double clientCallsPerSecond = argc == 8 ? std::stod(argv[7]) : 0.0;
 
     // The result every unit returns: an empty block of the unit's shape (1-pixel tiles).
     auto scene = loadScene(scenePath);
@@ -140,7 +146,47 @@ int main(int argc, char** argv) {
             reportMs.insert(reportMs.end(), myReport.begin(), myReport.end());
         });
     }
+    std::vector<double> previewMs, priorityMs;
+    std::thread clientCalls;
+    if (clientCallsPerSecond > 0) {
+        clientCalls = std::thread([&] {
+            const uint64_t jobId = submitted.status().job_id();
+            const auto interval = std::chrono::duration<double>(1.0 / clientCallsPerSecond);
+            for (int call = 0; !done; ++call) {
+                const auto t0 = Clock::now();
+                if (call % 2 == 0) {
+                    v1::GetImageRequest request;
+                    request.set_job_id(jobId);
+                    request.set_preview(true);
+                    request.set_format(v1::IMAGE_FORMAT_FILM);
+                    auto context = farm::makeContext(clientToken, std::chrono::seconds(30));
+                    auto reader = client->GetImage(context.get(), request);
+                    v1::ImageChunk chunk;
+                    while (reader->Read(&chunk)) {
+                    }
+                    if (!reader->Finish().ok()) break;  // the job ended meanwhile
+                    previewMs.push_back(
+                        std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+                } else {
+                    v1::SetJobPriorityRequest request;
+                    request.set_job_id(jobId);
+                    request.set_priority(call % 4 == 1 ? 1 : 0);
+                    v1::JobControlResponse response;
+                    if (!client
+                             ->SetJobPriority(
+                                 farm::makeContext(clientToken, std::chrono::seconds(30)).get(),
+                                 request, &response)
+                             .ok())
+                        break;  // the job ended meanwhile
+                    priorityMs.push_back(
+                        std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+                }
+                std::this_thread::sleep_until(t0 + interval);
+            }
+        });
+    }
     for (auto& thread : threads) thread.join();
+    if (clientCalls.joinable()) clientCalls.join();
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     auto percentile = [](std::vector<double> values, double p) {
         if (values.empty()) return 0.0;
@@ -153,5 +199,11 @@ int main(int argc, char** argv) {
         "result latency p50 %.2f ms, p99 %.2f ms\n",
         workers, units, merged.load(), seconds, merged / seconds, percentile(acquireMs, 0.5),
         percentile(acquireMs, 0.99), percentile(reportMs, 0.5), percentile(reportMs, 0.99));
+    if (clientCallsPerSecond > 0)
+        std::cout << absl::StrFormat(
+            "client calls: %u previews p50 %.2f ms, p99 %.2f ms; %u priority changes p50 %.2f "
+            "ms, p99 %.2f ms\n",
+            previewMs.size(), percentile(previewMs, 0.5), percentile(previewMs, 0.99),
+            priorityMs.size(), percentile(priorityMs, 0.5), percentile(priorityMs, 0.99));
     return merged == units ? 0 : 1;
 }

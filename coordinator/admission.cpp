@@ -137,8 +137,9 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
     if (settings.tile_size() > 16384)
         refuse(Kind::InvalidArgument, "tile size must be at most 16384");
     try {
-        admitted.grid = farm::JobGrid(size.x(), size.y(), int(settings.tile_size()),
-                                      settings.passes(), settings.passes_per_unit());
+        admitted.grid = farm::JobGrid(
+            TileGrid(size.x(), size.y(), int(settings.tile_size()), admitted.filterBorder),
+            settings.passes(), settings.passes_per_unit());
     } catch (const Error& e) {
         refuse(Kind::InvalidArgument, e.what());
     }

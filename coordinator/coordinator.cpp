@@ -1,3 +1,6 @@
+// Coordinator: construction and the background work, and the calls by which a job is submitted,
+// reported on, leased, merged and checkpointed. Taking up the state directory at start is in
+// recovery.cpp; the controls of jobs and workers, and retention, in job_control.cpp.
 #include "coordinator/coordinator.h"
 
 #include "common/farm/convert.h"
@@ -5,9 +8,7 @@
 #include "common/farm/sha256.h"
 #include "common/photon/radius_schedule.h"
 #include "coordinator/admission.h"
-#include "coordinator/checkpoint.h"
 #include "coordinator/log.h"
-#include "coordinator/retention.h"
 
 #include <absl/strings/str_replace.h>
 #include <openssl/rand.h>
@@ -55,13 +56,13 @@ uint64_t physicalMemoryBytes() {
     return uint64_t(::sysconf(_SC_PHYS_PAGES)) * uint64_t(::sysconf(_SC_PAGE_SIZE));
 }
 
-std::string mebibytes(uint64_t bytes) {
-    return absl::StrFormat("%.0f MiB", double(bytes) / (1 << 20));
-}
-
 constexpr double kPruneIntervalSeconds = 60;
 
 }  // namespace
+
+std::string Coordinator::mebibytes(uint64_t bytes) {
+    return absl::StrFormat("%.0f MiB", double(bytes) / (1 << 20));
+}
 
 uint64_t Coordinator::jobMemoryBytes(int width, int height, uint64_t unitCount) {
     return JobFilm::memoryBytes(width, height, unitCount) +
@@ -85,6 +86,7 @@ Coordinator::Coordinator(CoordinatorOptions options, std::shared_ptr<const Clock
     m_scheduler = std::make_unique<LeaseScheduler>(
         *m_clock, SchedulerOptions{m_options.leaseSeconds, m_options.maxAttempts},
         LeaseTokens(m_store.leaseKey(), epoch), randomLeaseBase());
+    m_workers = std::make_unique<WorkerRegistry>(*m_clock, *m_scheduler, m_options.leaseSeconds);
     m_nextCheckpoint = m_clock->monotonicSeconds() + m_options.checkpointIntervalSeconds;
     m_nextPrune = m_clock->monotonicSeconds() + 1;
     resume();
@@ -98,128 +100,6 @@ std::string Coordinator::jobDirectory(uint64_t jobId) const {
     return (fs::path(m_options.stateDirectory) / "jobs" / std::to_string(jobId)).string();
 }
 
-void Coordinator::resume() {
-    const double now = m_clock->wallSeconds();
-    for (const WorkerRow& row : m_store.workers()) {
-        WorkerRecord worker;
-        worker.info.set_worker_id(row.id);
-        worker.info.set_name(row.name);
-        worker.info.set_cores(row.cores);
-        worker.info.set_memory_bytes(row.memoryBytes);
-        worker.info.set_version(row.version);
-        worker.lastContactWall = now;  // forgotten after the keep time unless it calls
-        worker.draining = row.draining;
-        m_scheduler->addWorker(row.id, false);
-        m_workers[row.id] = std::move(worker);
-    }
-    const std::string database = m_options.stateDirectory + "/state.sqlite";
-    for (const JobRow& row : m_store.jobs()) {
-        auto job = std::make_unique<Job>();
-        job->id = row.id;
-        job->state = static_cast<v1::JobState>(row.state);
-        job->error = row.error;
-        job->createdAt = row.createdAt;
-        job->finishedAt = row.finishedAt;
-        try {
-            job->events = EventLog(m_store.jobLog(job->id));
-        } catch (const StorageError& e) {
-            logWarning("job.log_unreadable", {field("job", job->id), field("error", e.what())});
-        }
-        try {
-            resumeJob(*job, row);
-        } catch (const std::exception& e) {
-            // One damaged record fails its job, never the coordinator or the other jobs.
-            const std::string message =
-                absl::StrFormat("cannot resume job %u from %s: %s", job->id, database, e.what());
-            logWarning("job.unresumable", {field("job", job->id), field("error", message)});
-            job->grid = farm::JobGrid();
-            job->film = std::make_unique<JobFilm>(job->grid, "");
-            job->memoryBytes = 0;
-            m_scheduler->addJob(job->id, 0, job->grid, {}, {}, false);
-            if (job->state == v1::JOB_STATE_RUNNING || job->state == v1::JOB_STATE_DONE) {
-                job->state = v1::JOB_STATE_FAILED;
-                job->error = message;
-                job->finishedAt = now;
-                m_store.setJobState(job->id, job->state, message, now);
-            }
-        }
-        m_memoryInUse += job->memoryBytes;
-        m_jobs[job->id] = std::move(job);
-    }
-    // A job whose last unit was merged but whose end was not recorded before a crash.
-    std::vector<Job*> complete;
-    for (auto& [id, job] : m_jobs)
-        if (job->state == v1::JOB_STATE_RUNNING && job->film->complete())
-            complete.push_back(job.get());
-    for (Job* job : complete) {
-        job->completing = true;
-        finishJob(*job);
-    }
-}
-
-void Coordinator::resumeJob(Job& job, const JobRow& row) {
-    if (!row.description) fail("its description is not a valid alphorn.v1.JobDescription");
-    job.description = *row.description;
-    if (job.state < v1::JOB_STATE_RUNNING || job.state > v1::JOB_STATE_CANCELLED)
-        fail("state %d is not a job state", int(job.state));
-    if (row.filterBorder < 0 || row.filterBorder > 1024)
-        fail("filter border %d is invalid", row.filterBorder);
-    const v1::JobSettings& settings = job.description.settings();
-    job.filterBorder = row.filterBorder;
-    job.grid = farm::JobGrid(row.width, row.height, int(settings.tile_size()), settings.passes(),
-                             settings.passes_per_unit());
-    const uint32_t unitCount = job.grid.unitCount();
-    std::vector<uint32_t> attempts(unitCount, 0);
-    for (const UnitAttemptsRow& unit : m_store.unitAttempts(job.id))
-        if (unit.unitIndex < unitCount) attempts[unit.unitIndex] = unit.attempts;
-    job.film = std::make_unique<JobFilm>(job.grid, jobDirectory(job.id) + "/film.ckpt",
-                                         targetError(settings), settings.adaptive());
-    bool running = job.state == v1::JOB_STATE_RUNNING;
-    if (running || job.state == v1::JOB_STATE_DONE) {
-        const std::string checkpointPath = jobDirectory(job.id) + "/film.ckpt";
-        std::string problem;
-        if (!fs::exists(checkpointPath)) {
-            if (job.state == v1::JOB_STATE_DONE) problem = "its final checkpoint is missing";
-        } else {
-            try {
-                job.film->restore(job.film->readFile(), running);
-            } catch (const Error& e) {
-                problem = e.what();
-            }
-        }
-        if (!problem.empty()) {
-            // Every unit is a pure function of the job, so rendering again gives the same bytes.
-            logWarning("checkpoint.unreadable", {field("job", job.id), field("error", problem),
-                                                 field("action", "rendering it again")});
-            job.film->forget();
-            job.state = v1::JOB_STATE_RUNNING;
-            job.finishedAt = 0;
-            m_store.setJobState(job.id, job.state, job.error, 0);
-            running = true;
-        }
-    }
-    m_scheduler->addJob(job.id, job.description.settings().priority(), job.grid, job.film->merged(),
-                        attempts, running);
-    if (!running) return;
-    // A crash inside submit() between the job's record and its directory leaves a running job
-    // without one: it starts from nothing, and its checkpoints go there.
-    fs::create_directories(jobDirectory(job.id));
-    m_scheduler->setPaused(job.id, row.paused);
-    if (!job.film->inMemory()) {
-        const Checkpoint none{FilmBlock(0, 0, row.width, row.height), job.film->merged()};
-        job.film->restore(none, true);
-    }
-    m_scheduler->setLeaseLimit(job.id, job.film->leaseLimit());
-    job.memoryBytes = jobMemoryBytes(row.width, row.height, unitCount);
-    job.restored = job.film->mergedCount();
-    eventLocked(job, v1::JOB_EVENT_RESUMED_AFTER_RESTART,
-                absl::StrFormat("a coordinator process took the job up again: %u of %u units "
-                                "merged in its checkpoint%s",
-                                job.restored, unitCount, row.paused ? "; still paused" : ""));
-    logInfo("job.resumed", {field("job", job.id), field("units_restored", job.restored),
-                            field("units_total", unitCount)});
-}
-
 void Coordinator::start() {
     m_background = std::thread([this] { backgroundLoop(); });
 }
@@ -228,6 +108,8 @@ void Coordinator::beginStop() {
     {
         std::lock_guard lock(m_mutex);
         m_stopping = true;
+        // Watching clients are told to go (and come back to the next process) at once.
+        for (auto& [id, job] : m_jobs) job->changes->close();
     }
     m_workAvailable.notify_all();  // long-polling AcquireWork calls return at once
 }
@@ -238,6 +120,7 @@ void Coordinator::stop() {
         if (m_stopped) return;
         m_stopped = true;
         m_stopping = true;
+        for (auto& [id, job] : m_jobs) job->changes->close();
     }
     m_backgroundWake.notify_all();
     m_workAvailable.notify_all();
@@ -292,71 +175,6 @@ void Coordinator::touchBlobs(const std::vector<std::string>& sha256s) {
     const double now = m_clock->wallSeconds();
     std::lock_guard lock(m_mutex);
     for (const std::string& sha : sha256s) m_blobsTouchedAt[sha] = now;
-}
-
-void Coordinator::pruneFinishedJobs(double wallNow) {
-    const Retention retention(m_options.keepFinishedSeconds);
-    if (retention.keepsEverything()) return;
-    // Not while retry() holds an ended job outside m_mutex (or deleteJob() works).
-    std::lock_guard control(m_controlMutex);
-    std::vector<uint64_t> removed;
-    std::set<std::string> referenced;
-    std::unordered_map<std::string, double> touchedAt;
-    std::vector<uint64_t> forgottenWorkers;
-    {
-        std::lock_guard lock(m_mutex);
-        for (auto it = m_jobs.begin(); it != m_jobs.end();) {
-            const Job& job = *it->second;
-            // Nobody holds a pointer to an ended job outside m_mutex once `completing` is
-            // cleared (finishJob), so it can go.
-            if (job.state != v1::JOB_STATE_RUNNING && !job.completing &&
-                retention.expired(job.finishedAt, wallNow)) {
-                removed.push_back(job.id);
-                m_scheduler->removeJob(job.id);
-                it = m_jobs.erase(it);
-                continue;
-            }
-            for (const v1::BundleFile& file : job.description.bundle().files())
-                referenced.insert(file.sha256());
-            ++it;
-        }
-        // Workers that have not called for the keep time are forgotten (each restart of a
-        // worker registers a new id, so the table would grow without bound).
-        for (auto it = m_workers.begin(); it != m_workers.end();) {
-            if (m_scheduler->leaseCount(it->first) == 0 &&
-                retention.expired(it->second.lastContactWall, wallNow)) {
-                forgottenWorkers.push_back(it->first);
-                m_scheduler->forgetWorker(it->first);
-                it = m_workers.erase(it);
-            } else {
-                ++it;
-            }
-        }
-        std::erase_if(m_blobsTouchedAt,
-                      [&](const auto& entry) { return retention.expired(entry.second, wallNow); });
-        touchedAt = m_blobsTouchedAt;
-    }
-    const double keep = m_options.keepFinishedSeconds;
-    for (uint64_t jobId : removed) {
-        m_store.removeJob(jobId);
-        std::error_code ignored;
-        fs::remove_all(jobDirectory(jobId), ignored);
-        logInfo("job.removed",
-                {field("job", jobId), field("kept_hours", absl::StrFormat("%.4g", keep / 3600))});
-    }
-    for (uint64_t workerId : forgottenWorkers) {
-        m_store.removeWorker(workerId);
-        logInfo("worker.forgotten", {field("worker", workerId)});
-    }
-    uint64_t blobCount = 0, blobBytes = 0;
-    for (const BlobStore::StoredBlob& blob :
-         retention.unusedBlobs(m_blobs.list(), referenced, touchedAt, wallNow)) {
-        m_blobs.remove(blob.sha256);
-        ++blobCount;
-        blobBytes += blob.size;
-    }
-    if (blobCount > 0)
-        logInfo("blobs.removed", {field("blobs", blobCount), field("bytes", blobBytes)});
 }
 
 // ---- jobs ------------------------------------------------------------------------------------
@@ -429,7 +247,7 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
                                           job->description.settings().adaptive());
     job->film->startEmpty();
 
-    std::lock_guard lock(m_mutex);
+    std::unique_lock lock(m_mutex);
     const uint64_t id = job->id;
     const v1::JobSettings& settings = job->description.settings();
     m_scheduler->addJob(id, settings.priority(), grid, {}, {}, true);
@@ -450,9 +268,11 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     for (const v1::BundleFile& file : job->description.bundle().files())
         m_blobsTouchedAt.erase(file.sha256());
     m_jobs[id] = std::move(job);
-    saveEventLogsLocked(id);
     m_workAvailable.notify_all();
-    return statusLocked(*m_jobs[id]);
+    const v1::JobStatus status = statusLocked(*m_jobs[id]);
+    lock.unlock();
+    saveChangedEventLogs(id);
+    return status;
 }
 
 Coordinator::Job& Coordinator::jobLocked(uint64_t jobId) {
@@ -559,17 +379,21 @@ void Coordinator::endJobLocked(Job& job, v1::JobState state, const std::string& 
          field("results_discarded", job.discarded)});
 }
 
-v1::JobStatus Coordinator::cancel(uint64_t jobId) {
-    std::lock_guard lock(m_mutex);
-    Job& job = jobLocked(jobId);
-    if (job.state == v1::JOB_STATE_RUNNING && !job.completing)
-        endJobLocked(job, v1::JOB_STATE_CANCELLED, "cancelled by a client");
-    return statusLocked(job);
+void Coordinator::changedLocked(Job& job) {
+    job.changes->notify(job.state != v1::JOB_STATE_RUNNING);
 }
 
 void Coordinator::eventLocked(Job& job, v1::JobEventKind kind, std::string message,
                               uint64_t workerId, std::optional<uint32_t> unitIndex) {
     job.events.add(m_clock->wallSeconds(), kind, std::move(message), workerId, unitIndex);
+    changedLocked(job);
+}
+
+std::shared_ptr<const ChangeSignal> Coordinator::changeSignal(uint64_t jobId) {
+    std::lock_guard lock(m_mutex);
+    Job& job = jobLocked(jobId);
+    if (m_stopping) job.changes->close();
+    return job.changes;
 }
 
 void Coordinator::saveEventLogsLocked(std::optional<uint64_t> jobId) {
@@ -584,13 +408,13 @@ void Coordinator::saveEventLogsLocked(std::optional<uint64_t> jobId) {
     }
 }
 
-void Coordinator::saveChangedEventLogs() {
-    // Copied under the lock, written without it: many jobs' logs take many fsyncs.
+void Coordinator::saveChangedEventLogs(std::optional<uint64_t> jobId) {
+    // Copied under the lock, written without it: each save waits for the disk.
     std::vector<std::pair<uint64_t, v1::JobEventLog>> changed;
     {
         std::lock_guard lock(m_mutex);
         for (auto& [id, job] : m_jobs) {
-            if (!job->events.changed()) continue;
+            if ((jobId && id != *jobId) || !job->events.changed()) continue;
             changed.emplace_back(id, job->events.record());
             job->events.markSaved();
         }
@@ -604,232 +428,6 @@ void Coordinator::saveChangedEventLogs() {
             if (auto it = m_jobs.find(id); it != m_jobs.end()) it->second->events.markChanged();
         }
     }
-}
-
-Coordinator::Job& Coordinator::runningJobLocked(uint64_t jobId, const char* action,
-                                                const char* done) {
-    Job& job = jobLocked(jobId);
-    if (job.state != v1::JOB_STATE_RUNNING || job.completing)
-        throw FarmError(
-            Kind::FailedPrecondition,
-            absl::StrFormat("cannot %s job %u: it is %s; only a running job can be %s", action,
-                            jobId, job.completing ? "finishing" : farm::jobStateName(job.state),
-                            done));
-    return job;
-}
-
-v1::JobStatus Coordinator::setPaused(uint64_t jobId, bool paused) {
-    std::lock_guard lock(m_mutex);
-    Job& job = runningJobLocked(jobId, paused ? "pause" : "resume", paused ? "paused" : "resumed");
-    if (m_scheduler->paused(jobId) == paused) return statusLocked(job);
-    m_store.setJobPaused(jobId, paused);
-    m_scheduler->setPaused(jobId, paused);
-    const LeaseScheduler::JobLeases leases = m_scheduler->jobLeases(jobId);
-    eventLocked(job, paused ? v1::JOB_EVENT_PAUSED : v1::JOB_EVENT_RESUMED,
-                paused ? absl::StrFormat("no new leases; %u units out may finish", leases.leased)
-                       : std::string("leasing again"));
-    saveEventLogsLocked(jobId);
-    logInfo(paused ? "job.paused" : "job.resumed_by_client", {field("job", jobId)});
-    if (!paused) m_workAvailable.notify_all();
-    return statusLocked(job);
-}
-
-v1::JobStatus Coordinator::setPriority(uint64_t jobId, int32_t priority) {
-    std::lock_guard lock(m_mutex);
-    Job& job = runningJobLocked(jobId, "change the priority of", "given a new priority");
-    const int32_t before = job.description.settings().priority();
-    if (before == priority) return statusLocked(job);
-    v1::JobDescription changed = job.description;
-    changed.mutable_settings()->set_priority(priority);
-    m_store.setJobDescription(jobId, changed);
-    job.description = std::move(changed);
-    m_scheduler->setPriority(jobId, priority);
-    eventLocked(job, v1::JOB_EVENT_PRIORITY_CHANGED,
-                absl::StrFormat("priority %d -> %d", before, priority));
-    saveEventLogsLocked(jobId);
-    logInfo("job.priority", {field("job", jobId), field("from", before), field("to", priority)});
-    m_workAvailable.notify_all();
-    return statusLocked(job);
-}
-
-v1::JobStatus Coordinator::retry(uint64_t jobId) {
-    std::lock_guard control(m_controlMutex);
-    Job* job = nullptr;
-    uint64_t memory = 0;
-    {
-        std::lock_guard lock(m_mutex);
-        job = &jobLocked(jobId);
-        if (job->state == v1::JOB_STATE_RUNNING || job->state == v1::JOB_STATE_DONE)
-            throw FarmError(
-                Kind::FailedPrecondition,
-                absl::StrFormat("cannot retry job %u: it is %s; only a failed or cancelled job "
-                                "can run again",
-                                jobId, farm::jobStateName(job->state)));
-        if (job->grid.unitCount() == 0)
-            throw FarmError(Kind::FailedPrecondition,
-                            absl::StrFormat("cannot retry job %u: its record could not be "
-                                            "resumed (%s); submit the scene again",
-                                            jobId, job->error));
-        memory = jobMemoryBytes(job->grid.width(), job->grid.height(), job->grid.unitCount());
-        if (m_memoryInUse + memory > m_options.maxMemoryBytes)
-            throw FarmError(Kind::ResourceExhausted,
-                            absl::StrFormat("cannot retry job %u now: it needs about %s of "
-                                            "coordinator memory; running jobs hold %s of the %s "
-                                            "allowed (--max-memory)",
-                                            jobId, mebibytes(memory), mebibytes(m_memoryInUse),
-                                            mebibytes(m_options.maxMemoryBytes)));
-    }
-    // The units in the job's checkpoint stay merged: their sums are exact, so finishing the
-    // others gives the bytes of a fresh job. A missing or unreadable checkpoint starts afresh.
-    // Read without the lock (a film may be large); the write mutex keeps checkpoint writes
-    // out, and m_controlMutex keeps deleteJob() away.
-    std::lock_guard writeLock(job->film->writeMutex());
-    std::optional<Checkpoint> checkpoint;
-    const std::string checkpointPath = jobDirectory(jobId) + "/film.ckpt";
-    if (fs::exists(checkpointPath)) {
-        try {
-            checkpoint = job->film->readFile();
-        } catch (const Error& e) {
-            logWarning("checkpoint.unreadable", {field("job", jobId), field("error", e.what()),
-                                                 field("action", "rendering it again")});
-        }
-    }
-    std::lock_guard lock(m_mutex);
-    auto it = m_jobs.find(jobId);
-    if (it == m_jobs.end() || it->second.get() != job)
-        throw FarmError(Kind::NotFound, absl::StrFormat("no job %u (deleted)", jobId));
-    if (job->state == v1::JOB_STATE_RUNNING || job->state == v1::JOB_STATE_DONE)
-        throw FarmError(Kind::FailedPrecondition,
-                        absl::StrFormat("cannot retry job %u: it is %s already", jobId,
-                                        farm::jobStateName(job->state)));
-    if (m_memoryInUse + memory > m_options.maxMemoryBytes)
-        throw FarmError(Kind::ResourceExhausted,
-                        absl::StrFormat("cannot retry job %u now: not enough coordinator memory "
-                                        "(--max-memory)",
-                                        jobId));
-    // Stored first: should that fail, nothing has changed.
-    m_store.clearUnitAttempts(jobId);
-    m_store.setJobPaused(jobId, false);
-    m_store.setJobState(jobId, v1::JOB_STATE_RUNNING, "", 0);
-    const v1::JobState before = job->state;
-    if (checkpoint)
-        job->film->restore(std::move(*checkpoint), true);
-    else
-        job->film->startEmpty();
-    job->state = v1::JOB_STATE_RUNNING;
-    job->error.clear();
-    job->finishedAt = 0;
-    job->memoryBytes = memory;
-    m_memoryInUse += memory;
-    job->restored = job->film->mergedCount();
-    job->mergedThisRun = 0;
-    job->firstMergeAt.reset();
-    job->samplesMergedThisRun = job->raysMergedThisRun = 0;
-    m_scheduler->removeJob(jobId);
-    m_scheduler->addJob(jobId, job->description.settings().priority(), job->grid,
-                        job->film->merged(), {}, true);
-    m_scheduler->setLeaseLimit(jobId, job->film->leaseLimit());
-    eventLocked(*job, v1::JOB_EVENT_RETRIED,
-                absl::StrFormat("was %s; %u of %u units kept from its checkpoint, the rest "
-                                "queued with their attempts forgotten",
-                                farm::jobStateName(before), job->restored, job->grid.unitCount()));
-    saveEventLogsLocked(jobId);
-    logInfo("job.retried", {field("job", jobId), field("units_kept", job->restored),
-                            field("units_total", job->grid.unitCount())});
-    // Should every unit be in the checkpoint already, the next checkpoint round ends the job.
-    m_workAvailable.notify_all();
-    return statusLocked(*job);
-}
-
-v1::DeleteJobResponse Coordinator::deleteJob(uint64_t jobId, bool cancelRunning) {
-    std::lock_guard control(m_controlMutex);
-    v1::DeleteJobResponse response;
-    response.set_job_id(jobId);
-    std::unique_ptr<Job> deleted;
-    std::set<std::string> jobBlobs, referenced;
-    std::unordered_map<std::string, double> touchedAt;
-    {
-        std::lock_guard lock(m_mutex);
-        Job& job = jobLocked(jobId);
-        if (job.state == v1::JOB_STATE_RUNNING) {
-            if (job.completing)
-                throw FarmError(Kind::FailedPrecondition,
-                                absl::StrFormat("job %u is finishing (its final checkpoint is "
-                                                "being written); try again in a moment",
-                                                jobId));
-            if (!cancelRunning)
-                throw FarmError(
-                    Kind::FailedPrecondition,
-                    absl::StrFormat("job %u is running: cancel it first (alphorn cancel %u), "
-                                    "or delete it with --cancel",
-                                    jobId, jobId));
-        }
-        if (job.state == v1::JOB_STATE_RUNNING) {
-            endJobLocked(job, v1::JOB_STATE_CANCELLED, "cancelled by a client to delete it");
-            response.set_cancelled(true);
-        }
-        // Should this fail, the job is still there (cancelled), as the store says.
-        m_store.removeJob(jobId);
-        job.deleted = true;
-        for (const v1::BundleFile& file : job.description.bundle().files())
-            jobBlobs.insert(file.sha256());
-        m_scheduler->removeJob(jobId);
-        auto it = m_jobs.find(jobId);
-        deleted = std::move(it->second);
-        m_jobs.erase(it);
-        for (const auto& [id, other] : m_jobs)
-            for (const v1::BundleFile& file : other->description.bundle().files())
-                referenced.insert(file.sha256());
-        touchedAt = m_blobsTouchedAt;
-    }
-    {
-        // A checkpoint write of the job in progress finishes before its directory goes.
-        std::lock_guard writeLock(deleted->film->writeMutex());
-        std::error_code ignored;
-        fs::remove_all(jobDirectory(jobId), ignored);
-    }
-    for (const std::string& sha : Retention::deletedJobBlobs(jobBlobs, referenced, touchedAt)) {
-        if (!m_blobs.has(sha)) continue;
-        response.set_blob_bytes_removed(response.blob_bytes_removed() + m_blobs.size(sha));
-        response.set_blobs_removed(response.blobs_removed() + 1);
-        m_blobs.remove(sha);
-    }
-    logInfo("job.deleted", {field("job", jobId), field("cancelled", response.cancelled()),
-                            field("blobs", response.blobs_removed()),
-                            field("bytes", response.blob_bytes_removed())});
-    std::lock_guard lock(m_mutex);
-    m_deletedJobs.push_back(std::move(deleted));
-    return response;
-}
-
-v1::GetJobLogResponse Coordinator::jobLog(uint64_t jobId, uint64_t afterSequence) {
-    std::lock_guard lock(m_mutex);
-    const Job& job = jobLocked(jobId);
-    v1::GetJobLogResponse response;
-    for (v1::JobEvent& event : job.events.after(afterSequence))
-        *response.add_events() = std::move(event);
-    response.set_events_dropped(job.events.dropped());
-    response.set_state(job.state);
-    return response;
-}
-
-v1::WorkerInfo Coordinator::setWorkerDraining(uint64_t workerId, bool draining) {
-    std::lock_guard lock(m_mutex);
-    auto it = m_workers.find(workerId);
-    if (it == m_workers.end())
-        throw FarmError(
-            Kind::UnknownWorker,
-            absl::StrFormat("no worker %u (alphorn workers --all lists them)", workerId));
-    WorkerRecord& worker = it->second;
-    if (worker.draining != draining) {
-        m_store.setWorkerDraining(workerId, draining);
-        worker.draining = draining;
-        logInfo(draining ? "worker.draining" : "worker.undrained",
-                {field("worker", workerId), field("by", "client"),
-                 field("leases", m_scheduler->leaseCount(workerId))});
-        m_workAvailable.notify_all();
-    }
-    return workerInfoLocked(workerId, worker);
 }
 
 Coordinator::ImageSnapshot Coordinator::snapshot(uint64_t jobId, bool preview) {
@@ -877,79 +475,21 @@ uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
     const uint64_t id = m_store.addWorker(row, m_clock->wallSeconds());
     if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     std::lock_guard lock(m_mutex);
-    WorkerRecord& worker = m_workers[id];
-    worker.info.set_worker_id(id);
-    worker.info.set_name(request.name());
-    worker.info.set_cores(request.cores());
-    worker.info.set_memory_bytes(request.memory_bytes());
-    worker.info.set_version(request.version());
-    worker.lastContactWall = m_clock->wallSeconds();
-    m_scheduler->addWorker(id, true);
+    m_workers->add(id, request);
     logInfo("worker.registered",
             {field("worker", id), field("name", request.name()), field("cores", request.cores()),
              field("version", request.version())});
     return id;
 }
 
-Coordinator::WorkerRecord* Coordinator::touchWorkerLocked(uint64_t workerId) {
-    auto it = m_workers.find(workerId);
-    if (it == m_workers.end()) return nullptr;
-    m_scheduler->touchWorker(workerId);
-    it->second.lastContactWall = m_clock->wallSeconds();
-    it->second.left = false;
-    return &it->second;
-}
-
 std::vector<v1::WorkerInfo> Coordinator::listWorkers(bool includeDead) {
     std::lock_guard lock(m_mutex);
-    std::vector<v1::WorkerInfo> result;
-    for (const auto& [id, worker] : m_workers) {
-        v1::WorkerInfo info = workerInfoLocked(id, worker);
-        if (info.alive() || includeDead) result.push_back(std::move(info));
-    }
-    return result;
+    return m_workers->list(includeDead);
 }
 
 std::map<uint64_t, std::vector<Coordinator::HeldUnit>> Coordinator::heldUnits() const {
     std::lock_guard lock(m_mutex);
-    std::map<uint64_t, std::vector<HeldUnit>> held;
-    for (const auto& [id, job] : m_jobs) {
-        if (job->state != v1::JOB_STATE_RUNNING) continue;
-        // Only running jobs hold leases; the walk stops at the job's last leased unit.
-        uint32_t leased = m_scheduler->jobLeases(id).leased;
-        for (uint32_t unit = 0; leased > 0 && unit < job->grid.unitCount(); ++unit) {
-            const LeaseScheduler::UnitSlot& slot = m_scheduler->unit(id, unit);
-            if (slot.state != LeaseScheduler::UnitState::Leased) continue;
-            held[slot.workerId].push_back({id, unit});
-            --leased;
-        }
-    }
-    return held;
-}
-
-v1::WorkerInfo Coordinator::workerInfoLocked(uint64_t workerId, const WorkerRecord& worker) const {
-    v1::WorkerInfo info = worker.info;
-    const double since = m_scheduler->secondsSinceSeen(workerId);
-    info.set_seconds_since_seen(since);
-    info.set_leases(m_scheduler->leaseCount(workerId));
-    info.set_alive(!worker.left && since < 3 * m_options.leaseSeconds);
-    // A worker calls every heartbeat interval while it runs (also when idle), so a silence of
-    // two intervals says it is probably gone, long before its leases expire.
-    if (worker.left)
-        info.set_state(v1::WORKER_STATE_LEFT);
-    else if (!info.alive())
-        info.set_state(v1::WORKER_STATE_DEAD);
-    else if (since > silentAfterSeconds())
-        info.set_state(v1::WORKER_STATE_SILENT);
-    else
-        info.set_state(v1::WORKER_STATE_ALIVE);
-    info.set_draining(worker.draining || worker.exiting);
-    info.set_exiting(worker.exiting);
-    if (worker.renderSeconds > 0) {
-        info.set_samples_per_second(double(worker.samples) / worker.renderSeconds);
-        info.set_rays_per_second(double(worker.rays) / worker.renderSeconds);
-    }
-    return info;
+    return m_workers->heldUnits();
 }
 
 v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId,
@@ -957,7 +497,7 @@ v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId,
     std::unique_lock lock(m_mutex);
     v1::AcquireWorkResponse response;
     for (;;) {
-        const WorkerRecord* worker = touchWorkerLocked(workerId);
+        const WorkerRegistry::Worker* worker = m_workers->touch(workerId);
         if (!worker)
             throw FarmError(Kind::UnknownWorker,
                             absl::StrFormat("unknown worker %u: register again", workerId));
@@ -980,7 +520,7 @@ v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId,
         }
         // The wait is real time even with another clock: it only bounds a long poll.
         if (m_workAvailable.wait_until(lock, until) == std::cv_status::timeout) {
-            touchWorkerLocked(workerId);
+            m_workers->touch(workerId);
             return response;
         }
     }
@@ -989,23 +529,10 @@ v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId,
 v1::HeartbeatResponse Coordinator::heartbeat(const v1::HeartbeatRequest& request) {
     std::lock_guard lock(m_mutex);
     v1::HeartbeatResponse response;
-    // A heartbeat of the stopping process that arrives after its goodbye leaves it gone.
-    const auto known = m_workers.find(request.worker_id());
-    const bool leftBefore = known != m_workers.end() && known->second.left;
-    WorkerRecord* worker = touchWorkerLocked(request.worker_id());
-    if (!worker) {
+    if (!m_workers->heartbeat(request)) {
         response.set_unknown_worker(true);
         for (uint64_t lease : request.lease_ids()) response.add_drop_lease_ids(lease);
         return response;
-    }
-    if (request.draining() && !worker->exiting) {
-        worker->exiting = true;
-        logInfo("worker.draining", {field("worker", request.worker_id()), field("by", "SIGTERM")});
-    }
-    if (leftBefore && request.draining() && request.lease_ids_size() == 0) worker->left = true;
-    if (request.exiting() && request.lease_ids_size() == 0) {
-        worker->left = true;
-        logInfo("worker.left", {field("worker", request.worker_id())});
     }
     for (int i = 0; i < request.lease_ids_size(); ++i) {
         const uint64_t leaseId = request.lease_ids(i);
@@ -1020,6 +547,8 @@ v1::HeartbeatResponse Coordinator::heartbeat(const v1::HeartbeatRequest& request
         if (!m_scheduler->renew(request.worker_id(), leaseId, held ? &*held : nullptr)) {
             response.add_drop_lease_ids(leaseId);
         } else if (m_scheduler->leaseCount(request.worker_id()) > leasedBefore) {
+            if (auto job = m_jobs.find(held->jobId); job != m_jobs.end())
+                changedLocked(*job->second);
             logInfo("unit.readopted",
                     {field("job", held->jobId), field("unit", held->unitIndex),
                      field("worker", request.worker_id()), field("lease", leaseId)});
@@ -1066,14 +595,11 @@ void Coordinator::recordFailureLocked(Job& job, const LeaseScheduler::Failure& f
 void Coordinator::expireLeases() {
     std::lock_guard lock(m_mutex);
     for (const auto& [expired, failure] : m_scheduler->expireLeases()) {
-        std::string workerName;
-        if (auto worker = m_workers.find(expired.workerId); worker != m_workers.end())
-            workerName = worker->second.info.name();
         recordFailureLocked(
             *m_jobs.at(expired.jobId), failure,
             absl::StrFormat("lease expired: worker %u (%s) stopped responding while rendering "
                             "unit %u (crashed, hung or lost its network)",
-                            expired.workerId, workerName, expired.unitIndex),
+                            expired.workerId, m_workers->name(expired.workerId), expired.unitIndex),
             expired.workerId);
     }
 }
@@ -1098,7 +624,7 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
     int border = 0;
     {
         std::lock_guard lock(m_mutex);
-        if (!touchWorkerLocked(header.worker_id()))
+        if (!m_workers->touch(header.worker_id()))
             throw FarmError(
                 Kind::UnknownWorker,
                 absl::StrFormat("unknown worker %u: register again", header.worker_id()));
@@ -1129,6 +655,7 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
         // dropped. Results are idempotent by unit id: a unit is merged at most once.
         if (!m_scheduler->mayMerge(jobId, unitIndex, leaseId)) {
             ++job.discarded;
+            changedLocked(job);
             logInfo("result.discarded",
                     {field("job", jobId), field("unit", unitIndex),
                      field("worker", header.worker_id()), field("lease", leaseId)});
@@ -1165,6 +692,7 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
         // Checked again: the job or the lease may have changed while decompressing.
         if (!m_scheduler->markMerged(jobId, unitIndex, leaseId)) {
             ++job.discarded;
+            changedLocked(job);
             return v1::RESULT_DISCARDED;
         }
         const uint32_t leaseLimit = job.film->leaseLimit();
@@ -1184,13 +712,7 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
             uint64_t(unit.tile.width()) * unit.tile.height() * (unit.passEnd - unit.passBegin);
         job.samplesMergedThisRun += samples;
         job.raysMergedThisRun += header.rays();
-        if (auto worker = m_workers.find(header.worker_id()); worker != m_workers.end()) {
-            WorkerRecord& record = worker->second;
-            record.info.set_units_merged(record.info.units_merged() + 1);
-            record.samples += samples;
-            record.rays += header.rays();
-            record.renderSeconds += std::max(0.0, header.render_seconds());
-        }
+        m_workers->recordMerge(header.worker_id(), samples, header.rays(), header.render_seconds());
         eventLocked(job, v1::JOB_EVENT_MERGED, "", header.worker_id(), unitIndex);
         if (job.film->complete()) {
             job.completing = true;
@@ -1242,6 +764,7 @@ void Coordinator::writeJobCheckpoint(Job& job, const JobFilm::Copy& copy) {
     } catch (const std::exception& e) {
         std::lock_guard lock(m_mutex);
         job.film->checkpointFailed(e.what());
+        changedLocked(job);
         throw;
     }
     std::lock_guard lock(m_mutex);

@@ -1,12 +1,20 @@
 // The coordinator: a thin façade over its parts, independent of gRPC. It holds them together
-// under one lock and runs the background work (lease expiry, checkpoints, retention):
-//   admission.h        a submitted job is checked and completed with defaults
-//   job_store.h        jobs, failed attempts, workers and the lease key are stored (SQLite)
-//   lease_scheduler.h  units are queued, leased, renewed, fenced, failed and re-adopted
-//   job_film.h         results are merged into the job's film, checkpointed and read back
+// under one lock and runs the background work (lease expiry, checkpoints, retention). Where each
+// step of a job happens:
+//   admission.h        admitted: a submitted job is checked and completed with defaults
+//   job_store.h        stored: jobs, failed attempts, workers and the lease key (SQLite)
+//   lease_scheduler.h  leased: units are queued, leased, renewed, fenced, failed and re-adopted
+//   job_film.h         merged and checkpointed: results go into the job's film, which is
+//                      written to its checkpoint file (checkpoint.h) and read back
+//   worker_registry.h  the workers: registration, liveness, drains, what each merged
 //   retention.h        ended jobs, unused blobs and silent workers are forgotten
 //   event_log.h        each job's bounded log of what happened to it
-// The gRPC services (services.h) translate calls into these methods.
+//   change_signal.h    each job's change signal, which WatchJob waits on
+// The façade's own code is in three files: coordinator.cpp (the lock, the background work, and
+// the calls of submission, leasing, merging and checkpointing), recovery.cpp (taking up the
+// state directory at start) and job_control.cpp (cancel, retry, pause, priority, delete, drain,
+// and removing what the keep time lets go). The gRPC services (services.h) translate calls into
+// these methods.
 #pragma once
 
 #include "alphorn/v1/client_service.pb.h"
@@ -15,6 +23,7 @@
 #include "common/farm/job_grid.h"
 #include "common/render/film.h"
 #include "coordinator/blob_store.h"
+#include "coordinator/change_signal.h"
 #include "coordinator/clock.h"
 #include "coordinator/event_log.h"
 #include "coordinator/farm_error.h"
@@ -22,6 +31,7 @@
 #include "coordinator/job_store.h"
 #include "coordinator/lease_scheduler.h"
 #include "coordinator/state_lock.h"
+#include "coordinator/worker_registry.h"
 
 #include <chrono>
 #include <condition_variable>
@@ -66,7 +76,8 @@ class Coordinator {
 
     // Starts the background thread that calls tick() every 200 ms.
     void start();
-    // Makes waiting AcquireWork calls return, so the server can shut down quickly.
+    // Makes waiting AcquireWork calls return and closes every job's change signal (WatchJob
+    // streams end), so the server can shut down quickly.
     void beginStop();
     // Stops the background thread and checkpoints every running job (clean shutdown loses nothing).
     void stop();
@@ -88,7 +99,7 @@ class Coordinator {
     v1::JobStatus cancel(uint64_t jobId);
     std::vector<v1::WorkerInfo> listWorkers(bool includeDead);
 
-    // Job and worker control. Each throws FarmError (NotFound for an unknown job,
+    // Job and worker control (job_control.cpp). Each throws FarmError (NotFound for an unknown job,
     // FailedPrecondition for a change the job's state does not allow, with the reason) and
     // records the change durably and in the job's event log.
     // Runs a failed or cancelled job again under its id: units in its checkpoint stay merged,
@@ -104,16 +115,12 @@ class Coordinator {
     // A draining worker is given no new unit (it finishes those it holds). Throws UnknownWorker.
     v1::WorkerInfo setWorkerDraining(uint64_t workerId, bool draining);
     // The units workers hold right now, by worker id (the dashboard's "current unit").
-    struct HeldUnit {
-        uint64_t jobId = 0;
-        uint32_t unitIndex = 0;
-    };
+    using HeldUnit = WorkerRegistry::HeldUnit;
     std::map<uint64_t, std::vector<HeldUnit>> heldUnits() const;
     // Seconds between a worker's heartbeats (told at registration).
-    double heartbeatIntervalSeconds() const { return std::max(0.1, m_options.leaseSeconds / 4); }
-    // Silence after which a worker is listed SILENT: two heartbeat intervals, at least 3 s (an
-    // idle worker's long poll lasts 2 s).
-    double silentAfterSeconds() const { return std::max(3.0, 2 * heartbeatIntervalSeconds()); }
+    double heartbeatIntervalSeconds() const { return m_workers->heartbeatIntervalSeconds(); }
+    // Silence after which a worker is listed SILENT (WorkerRegistry::silentAfterSeconds).
+    double silentAfterSeconds() const { return m_workers->silentAfterSeconds(); }
     struct ImageSnapshot {
         FilmBlock film;
         v1::JobStatus status;
@@ -121,6 +128,9 @@ class Coordinator {
     // The merged film: a finished job's final film, or (preview) whatever is merged so far.
     ImageSnapshot snapshot(uint64_t jobId, bool preview);
     std::string jobDirectory(uint64_t jobId) const;
+    // The job's change signal (WatchJob waits on it); throws NotFound for an unknown job. It is
+    // closed when the job is deleted or removed and when the coordinator begins to stop.
+    std::shared_ptr<const ChangeSignal> changeSignal(uint64_t jobId);
 
     // Worker side.
     uint64_t registerWorker(const v1::RegisterRequest& request);
@@ -178,18 +188,11 @@ class Coordinator {
         uint64_t raysMergedThisRun = 0;
         EventLog events;
         bool deleted = false;  // removed by a client; no checkpoint may be written any more
+        // Bumped on every change its status shows (changedLocked); WatchJob waits on it.
+        std::shared_ptr<ChangeSignal> changes = std::make_shared<ChangeSignal>();
     };
-    struct WorkerRecord {
-        v1::WorkerInfo info;
-        double lastContactWall = 0;  // wall clock of the last call, or of this process's start
-        bool draining = false;       // drained by a client (stored)
-        bool exiting = false;        // said it is stopping (SIGTERM)
-        bool left = false;           // said it exits now
-        // Its merged units in this process: samples, rays and its own render seconds.
-        uint64_t samples = 0, rays = 0;
-        double renderSeconds = 0;
-    };
-
+    static std::string mebibytes(uint64_t bytes);
+    // Restores the workers and jobs of the state directory (recovery.cpp).
     void resume();
     // Rebuilds one job from its stored row and checkpoint; throws Error on a damaged record.
     void resumeJob(Job& job, const JobRow& row);
@@ -210,16 +213,18 @@ class Coordinator {
     void recordFailureLocked(Job& job, const LeaseScheduler::Failure& failure,
                              const std::string& message, uint64_t workerId);
     void endJobLocked(Job& job, v1::JobState state, const std::string& error);
-    WorkerRecord* touchWorkerLocked(uint64_t workerId);
-    v1::WorkerInfo workerInfoLocked(uint64_t workerId, const WorkerRecord& worker) const;
-    // Appends to the job's event log (at the clock's wall time).
+    // Something the job's status shows changed: bumps its change signal. Every event is such a
+    // change, so eventLocked() calls it; the other changes (a discarded result, a failed
+    // checkpoint, a re-adopted lease) call it themselves.
+    void changedLocked(Job& job);
+    // Appends to the job's event log (at the clock's wall time) and signals the change.
     void eventLocked(Job& job, v1::JobEventKind kind, std::string message, uint64_t workerId = 0,
                      std::optional<uint32_t> unitIndex = std::nullopt);
     // Stores the event logs that changed (every job, or one); a failure is logged, not thrown:
-    // a log is worth less than the work it records.
+    // a log is worth less than the work it records. Under m_mutex, for a job's end.
     void saveEventLogsLocked(std::optional<uint64_t> jobId = std::nullopt);
-    // The same for every job, writing without m_mutex (the checkpoint rounds and stop()).
-    void saveChangedEventLogs();
+    // The same, writing without m_mutex (submissions, controls, checkpoint rounds, stop()).
+    void saveChangedEventLogs(std::optional<uint64_t> jobId = std::nullopt);
     // The job, refusing with FailedPrecondition unless it is running (for pause and priority).
     Job& runningJobLocked(uint64_t jobId, const char* action, const char* done);
 
@@ -229,8 +234,9 @@ class Coordinator {
     JobStore m_store;
     BlobStore m_blobs;
     mutable std::mutex m_mutex;
-    // Taken before m_mutex by retry() and deleteJob(), which do file work without m_mutex, and
-    // by pruneFinishedJobs(), which must not free a job retry() holds.
+    // Taken before m_mutex by the job controls (pause, priority, retry, delete), which write the
+    // store or files without m_mutex, and by pruneFinishedJobs(), which must not free a job a
+    // control holds.
     std::mutex m_controlMutex;
     std::condition_variable m_workAvailable;
     std::unique_ptr<LeaseScheduler> m_scheduler;
@@ -238,7 +244,7 @@ class Coordinator {
     // Jobs deleted by a client, freed by the next tick(): the background thread may still hold
     // a pointer to one from the tick in progress (checkpointDirtyJobs).
     std::vector<std::unique_ptr<Job>> m_deletedJobs;
-    std::map<uint64_t, WorkerRecord> m_workers;
+    std::unique_ptr<WorkerRegistry> m_workers;  // made after m_scheduler, which it informs
     std::unordered_map<std::string, double> m_blobsTouchedAt;  // sha256 -> wall clock
     uint64_t m_memoryInUse = 0;                                // sum of running jobs' memoryBytes
     double m_nextCheckpoint = 0, m_nextPrune = 0;              // monotonic

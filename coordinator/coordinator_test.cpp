@@ -22,6 +22,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <future>
 #include <set>
 
 namespace alphorn::coordinator {
@@ -1004,6 +1005,53 @@ TEST_F(CoordinatorJob, WorkerStatesFollowTheirCalls) {
     stopping.set_exiting(false);  // a heartbeat of the stopping process, late on the network
     coordinator.heartbeat(stopping);
     EXPECT_EQ(coordinator.listWorkers(true).at(0).state(), v1::WORKER_STATE_LEFT);
+    coordinator.stop();
+}
+
+// What WatchJob waits on: a job's change signal moves when a unit merges and when the job is
+// cancelled, waking a waiter at once; on a quiet job the wait returns at its deadline with the
+// version it saw; beginStop() closes it, so no watcher holds up a shutdown.
+TEST_F(CoordinatorJob, AJobsChangeSignalWakesWatchersOnMergeAndCancel) {
+    using namespace std::chrono_literals;
+    const auto inAWhile = [] { return std::chrono::steady_clock::now() + 10s; };
+    Coordinator coordinator(m_options, std::make_shared<ManualClock>());
+    const uint64_t jobId = coordinator.submit(upload(coordinator)).job_id();
+    const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+    const std::shared_ptr<const ChangeSignal> changes = coordinator.changeSignal(jobId);
+
+    ChangeSignal::Seen seen = changes->current();
+    EXPECT_EQ(changes->waitForChange(seen.version, std::chrono::steady_clock::now() + 20ms).version,
+              seen.version)
+        << "the signal moved on a quiet job";
+    const v1::AcquireWorkResponse lease =
+        coordinator.acquire(worker, std::chrono::steady_clock::now());
+    ASSERT_TRUE(lease.has_work());
+    EXPECT_GT(changes->current().version, seen.version) << "a lease changes units_leased";
+
+    std::string compressed;
+    const v1::ResultChunk header = render(lease, worker, compressed);
+    seen = changes->current();
+    auto merged = std::async(std::launch::async,
+                             [&] { return changes->waitForChange(seen.version, inAWhile()); });
+    EXPECT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
+    ASSERT_EQ(merged.wait_for(5s), std::future_status::ready) << "a merge did not wake the waiter";
+    EXPECT_GT(merged.get().version, seen.version);
+
+    seen = changes->current();
+    EXPECT_EQ(coordinator.report(header, compressed), v1::RESULT_DISCARDED);
+    EXPECT_GT(changes->current().version, seen.version) << "a discard changes results_discarded";
+
+    auto ended = std::async(std::launch::async, [&] { return changes->waitForEnd(inAWhile()); });
+    coordinator.cancel(jobId);
+    ASSERT_EQ(ended.wait_for(5s), std::future_status::ready) << "a cancel did not wake the waiter";
+    EXPECT_TRUE(ended.get().ended);
+
+    seen = changes->current();
+    auto stopping = std::async(std::launch::async,
+                               [&] { return changes->waitForChange(seen.version, inAWhile()); });
+    coordinator.beginStop();
+    ASSERT_EQ(stopping.wait_for(5s), std::future_status::ready) << "beginStop left a waiter";
+    EXPECT_TRUE(stopping.get().closed);
     coordinator.stop();
 }
 

@@ -29,7 +29,7 @@ FilmBlock unitBlock(const RenderUnit& unit, int value) {
 
 TEST(JobFilm, ProgressKeptOnEachMergeEqualsARecount) {
     // 3 x 2 tiles, 5 passes in chunks of 2: chunks of 2, 2 and 1 passes.
-    const farm::JobGrid grid(10, 7, 4, 5, 2);
+    const farm::JobGrid grid(TileGrid(10, 7, 4, 1), 5, 2);
     JobFilm film(grid, "");
     film.startEmpty();
     FilmBlock expected(0, 0, 10, 7);
@@ -59,7 +59,7 @@ TEST(JobFilm, ACheckpointRestoresTheFilmAndNeverGoesBack) {
         fs::temp_directory_path() / ("alphorn_job_film_" + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
-    const farm::JobGrid grid(8, 8, 4, 2, 1);
+    const farm::JobGrid grid(TileGrid(8, 8, 4, 1), 2, 1);
     const std::string path = (dir / "film.ckpt").string();
     JobFilm film(grid, path);
     film.startEmpty();
@@ -109,7 +109,7 @@ FilmBlock shrinkingNoiseBlock(const RenderUnit& unit) {
 // the merged passes only, and stops at the first point whose estimate reaches the target.
 TEST(JobFilm, ATargetErrorStopsAtTheFirstDecisionPointThatReachesIt) {
     // 2 x 2 tiles, a cap of 32 passes in chunks of 2: 4 tiles per chunk.
-    const farm::JobGrid grid(8, 8, 4, 32, 2);
+    const farm::JobGrid grid(TileGrid(8, 8, 4, 1), 32, 2);
     JobFilm film(grid, "", 0.2);
     film.startEmpty();
     EXPECT_EQ(film.leaseLimit(), 2u * 4) << "the passes before 4";
@@ -154,7 +154,7 @@ TEST(JobFilm, ACheckpointRestoresTheDecisions) {
     fs::remove_all(dir);
     fs::create_directories(dir);
     const std::string path = (dir / "film.ckpt").string();
-    const farm::JobGrid grid(8, 8, 4, 32, 2);
+    const farm::JobGrid grid(TileGrid(8, 8, 4, 1), 32, 2);
     JobFilm film(grid, path, 0.2);
     film.startEmpty();
     // The decisions at 4 and 8 passes go on; two units of the passes before 16 are merged.
@@ -210,7 +210,7 @@ TEST(JobFilm, AnAdaptiveJobSkipsTheUnitsOfFinishedTilesAcrossARestart) {
     fs::create_directories(dir);
     const std::string path = (dir / "film.ckpt").string();
     // 64 x 32 pixels in tiles of 16: 4 x 2 unit tiles, 2 adaptive tiles; 32 passes in chunks of 2.
-    const farm::JobGrid grid(64, 32, 16, 32, 2);
+    const farm::JobGrid grid(TileGrid(64, 32, 16, 1), 32, 2);
     const auto block = [&](uint32_t i) {
         const RenderUnit unit = grid.unit(i);
         return noiseBlock(unit, unit.tile.x0 < 32 ? 0.25 : 1.0);
@@ -260,7 +260,7 @@ TEST(JobFilm, AVersion1CheckpointIsReadWithoutAnEstimate) {
     fs::remove_all(dir);
     fs::create_directories(dir);
     const std::string path = (dir / "film.ckpt").string();
-    const farm::JobGrid grid(4, 4, 4, 4, 1);
+    const farm::JobGrid grid(TileGrid(4, 4, 4, 1), 4, 1);
     FilmBlock totals(0, 0, 4, 4, PassHalves::None);
     totals.at(1, 2).rgb[0] = toFixedPoint(5.0);
     totals.at(1, 2).weight = toFixedPoint(2.0);

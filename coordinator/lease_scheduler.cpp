@@ -5,6 +5,8 @@
 
 #include <absl/strings/str_format.h>
 
+#include <algorithm>
+
 namespace alphorn::coordinator {
 
 LeaseScheduler::LeaseScheduler(const Clock& clock, SchedulerOptions options, LeaseTokens tokens,
@@ -122,6 +124,18 @@ uint32_t LeaseScheduler::leaseCount(uint64_t workerId) const {
 
 double LeaseScheduler::secondsSinceSeen(uint64_t workerId) const {
     return m_clock.monotonicSeconds() - m_workers.at(workerId).lastSeen;
+}
+
+std::vector<std::pair<uint64_t, uint32_t>> LeaseScheduler::unitsLeasedTo(uint64_t workerId) const {
+    std::vector<std::pair<uint64_t, uint32_t>> held;
+    auto it = m_workers.find(workerId);
+    if (it == m_workers.end()) return held;
+    for (uint64_t leaseId : it->second.leases) {
+        const LeaseRef& ref = m_leases.at(leaseId);
+        held.emplace_back(ref.jobId, ref.unitIndex);
+    }
+    std::sort(held.begin(), held.end());
+    return held;
 }
 
 void LeaseScheduler::grant(uint64_t jobId, Job& job, uint32_t unitIndex, uint64_t workerId,

@@ -97,6 +97,8 @@ class LeaseScheduler {
     bool knowsWorker(uint64_t workerId) const { return m_workers.count(workerId) > 0; }
     uint32_t leaseCount(uint64_t workerId) const;
     double secondsSinceSeen(uint64_t workerId) const;
+    // The units the worker holds a lease on, as (job id, unit index), in ascending order.
+    std::vector<std::pair<uint64_t, uint32_t>> unitsLeasedTo(uint64_t workerId) const;
 
     // Leases the next unit to a known worker, or nothing when no unit is pending.
     std::optional<Lease> lease(uint64_t workerId);

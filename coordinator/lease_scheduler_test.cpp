@@ -17,7 +17,7 @@ class LeaseSchedulerTest : public ::testing::Test {
                               LeaseTokens(std::string(32, 'k'), epoch), 1000);
     }
     // 2 x 2 tiles of 4 pixels, 4 passes, 2 passes per unit: 2 chunks of 4 tiles, 8 units.
-    static farm::JobGrid grid() { return farm::JobGrid(8, 8, 4, 4, 2); }
+    static farm::JobGrid grid() { return farm::JobGrid(TileGrid(8, 8, 4, 1), 4, 2); }
 
     ManualClock m_clock;
 };
@@ -96,7 +96,7 @@ TEST_F(LeaseSchedulerTest, ResultsAreFencedAndMergedOnce) {
     LeaseScheduler scheduler = make();
     scheduler.addWorker(kWorkerA, true);
     scheduler.addWorker(kWorkerB, true);
-    scheduler.addJob(1, 0, farm::JobGrid(4, 4, 4, 1, 1), {}, {}, true);  // one unit
+    scheduler.addJob(1, 0, farm::JobGrid(TileGrid(4, 4, 4, 1), 1, 1), {}, {}, true);  // one unit
     const auto slow = *scheduler.lease(kWorkerA);
     m_clock.advance(11);
     ASSERT_EQ(scheduler.expireLeases().size(), 1u);

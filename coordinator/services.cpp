@@ -9,9 +9,9 @@
 #include "common/farm/sha256.h"
 #include "coordinator/log.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
-#include <thread>
 
 namespace alphorn::coordinator {
 
@@ -163,29 +163,62 @@ grpc::Status ClientServiceImpl::SubmitJob(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context,
                                          const v1::WatchJobRequest* request,
                                          grpc::ServerWriter<v1::JobStatus>* writer) {
+    using SteadyClock = std::chrono::steady_clock;
+    // A status unchanged but for its times and rates is sent again after kKeepAlive (the
+    // client's ETA and throughput stay fresh); changes within kGather of the last status sent
+    // go out together, so a job merging thousands of units a second sends a few statuses a
+    // second, while its end goes out at once. The synchronous gRPC API gives no callback when
+    // the client goes away, so that is checked every kCancelCheck of a quiet wait.
+    constexpr auto kKeepAlive = std::chrono::seconds(2);
+    constexpr auto kGather = std::chrono::milliseconds(200);
+    constexpr auto kCancelCheck = std::chrono::milliseconds(100);
     return guarded(context, m_token, "WatchJob", [&] {
         if (request->job_id() == 0)
             return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
                                 "WatchJob needs a job id (job ids start at 1)");
+        const std::shared_ptr<const ChangeSignal> changes =
+            m_coordinator.changeSignal(request->job_id());
+        // A closed signal: the job was deleted (listJobs throws NotFound) or the coordinator
+        // is stopping (the client reconnects to the next process).
+        const auto closed = [&] {
+            m_coordinator.listJobs(request->job_id());
+            return grpc::Status(grpc::StatusCode::UNAVAILABLE, "the coordinator is stopping");
+        };
         std::string last;
-        auto lastSent = std::chrono::steady_clock::now();
+        SteadyClock::time_point lastSent;
         for (;;) {
-            v1::JobStatus status = m_coordinator.listJobs(request->job_id()).at(0);
+            // The version is read before the status, so a change in between wakes the wait.
+            const ChangeSignal::Seen seen = changes->current();
+            if (seen.closed) return closed();
+            const v1::JobStatus status = m_coordinator.listJobs(request->job_id()).at(0);
             v1::JobStatus comparable = status;
             comparable.clear_elapsed_seconds();
             comparable.clear_eta_seconds();
             comparable.clear_samples_per_second();
             comparable.clear_rays_per_second();
             std::string serialized = comparable.SerializeAsString();
-            const auto now = std::chrono::steady_clock::now();
-            if (serialized != last || now - lastSent > std::chrono::seconds(2)) {
+            if (serialized != last || SteadyClock::now() - lastSent >= kKeepAlive) {
                 if (!writer->Write(status)) return grpc::Status::OK;
                 last = std::move(serialized);
-                lastSent = now;
+                lastSent = SteadyClock::now();
             }
             if (status.state() != v1::JOB_STATE_RUNNING) return grpc::Status::OK;
-            if (context->IsCancelled()) return grpc::Status::CANCELLED;
-            std::this_thread::sleep_for(std::chrono::milliseconds(200));
+            // Wait for a change (then out the gathering time, unless the job ends), the
+            // keep-alive, the client's cancel or the coordinator's stop.
+            bool changed = false;
+            for (;;) {
+                if (context->IsCancelled()) return grpc::Status::CANCELLED;
+                const auto now = SteadyClock::now();
+                const auto keepAliveAt = lastSent + kKeepAlive;
+                if (now >= keepAliveAt || (changed && now >= lastSent + kGather)) break;
+                const auto until = std::min(keepAliveAt, now + kCancelCheck);
+                const ChangeSignal::Seen next =
+                    changed ? changes->waitForEnd(std::min(until, lastSent + kGather))
+                            : changes->waitForChange(seen.version, until);
+                if (next.closed) return closed();
+                if (next.ended) break;
+                changed = changed || next.version != seen.version;
+            }
         }
     });
 }

@@ -361,9 +361,10 @@ class Simulation {
         job.blobs = blobs;
         m_submittedThisStep.insert(job.id);
         const v1::JobSettings& settings = status.settings();
-        job.grid =
-            farm::JobGrid(int(status.width()), int(status.height()), int(settings.tile_size()),
-                          settings.passes(), settings.passes_per_unit());
+        // The units' blocks are not checked here: no border.
+        job.grid = farm::JobGrid(
+            TileGrid(int(status.width()), int(status.height()), int(settings.tile_size()), 0),
+            settings.passes(), settings.passes_per_unit());
         // The units cover the image's every pixel with every pass (a job of no units would be
         // "done" at once, with an empty film).
         uint64_t samples = 0;

@@ -45,8 +45,9 @@ class Dielectric : public BSDF {
         return Color3f(invEta * invEta);
     }
 
-    // Equal indices refract nothing and reflect nothing (Fresnel is 0): the report's
-    // index-matched medium boundary. Volumetric integrators then cross it like <bsdf type="null">.
+    // Equal indices refract nothing and reflect nothing (Fresnel is 0): an index-matched medium
+    // boundary written as a dielectric. Volumetric integrators then cross it like <bsdf
+    // type="null">.
     bool isNull() const override { return m_intIOR == m_extIOR; }
 
     std::string toString() const override {

@@ -1,6 +1,6 @@
 // <bsdf type="null">: an index-matched boundary. Light passes straight through, unchanged, so a
-// mesh can bound a medium without refracting or reflecting anything (the report used a
-// dielectric with intIOR == extIOR for this, which we also recognise as null).
+// mesh can bound a medium without refracting or reflecting anything (a dielectric with
+// intIOR == extIOR says the same and is recognised as null too).
 //
 // The volumetric integrators see isNull() and cross such a surface without a scattering event,
 // without drawing random numbers and without counting a bounce. Other integrators sample it like

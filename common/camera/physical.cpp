@@ -6,7 +6,7 @@
 // The ray origin is a point on the lens disk (the concentric map of the aperture sample) and
 // the ray passes through the point of the focal plane that the pinhole ray through the same
 // image position reaches. A point at depth Z then blurs into a disk of radius
-// apertureRadius |1/Z - 1/focalDistance| in tangent-space image units (VALIDATION.md).
+// apertureRadius |1/Z - 1/focalDistance| in tangent-space image units.
 #include "common/camera/camera.h"
 #include "common/camera/pinhole.h"
 #include "common/core/warp.h"

@@ -9,7 +9,8 @@
 // Between the cones the intensity falls off as delta^4 with
 // delta = (cos theta - cos totalAngle) / (cos falloffStart - cos totalAngle) (quartic in cosine
 // space). Integrating over the sphere, the flux of central intensity I is
-// 2 pi I [(1 - cos ts) + (cos ts - cos tt) / 5], so I = power / that bracket (VALIDATION.md).
+// 2 pi I [(1 - cos ts) + (cos ts - cos tt) / 5], so I = power / that bracket (the delta^4 term
+// integrates to (cos ts - cos tt) / 5 over cos theta).
 #include "common/core/frame.h"
 #include "common/emitter/delta_light.h"
 

@@ -50,7 +50,7 @@ TEST(SpotLight, FalloffBetweenTheConesIsQuarticInCosine) {
     const double i0 = centralIntensity(10.0, std::cos(M_PI / 6), std::cos(25.0 * M_PI / 180));
     EXPECT_NEAR(received(0).r(), i0, 1e-5 * i0);
     EXPECT_NEAR(received(24.9f).r(), i0, 1e-5 * i0);
-    // VALIDATION.md: falloff(27.5 degrees) = 0.073656 for 30 / 25 degrees.
+    // falloff(27.5 degrees) = delta^4 = ((cos 27.5 - cos 30) / (cos 25 - cos 30))^4 = 0.073656.
     EXPECT_NEAR(received(27.5f).r() / i0, 0.073656, 2e-5);
     EXPECT_NEAR(received(27.5f).g() / (2.0 * i0), 0.073656, 2e-5);
     EXPECT_EQ(received(30.5f).r(), 0.0f);

@@ -88,7 +88,7 @@ TEST(Bundle, GatherAndMaterializeRoundTrip) {
 }
 
 TEST(JobGrid, CoversEveryPassAndPixelOnce) {
-    JobGrid grid(100, 70, 32, 7, 3);
+    JobGrid grid(TileGrid(100, 70, 32, 2), 7, 3);
     EXPECT_EQ(grid.tileCount(), 4u * 3u);
     EXPECT_EQ(grid.chunkCount(), 3u);
     std::vector<int> coverage(100 * 70 * 7, 0);
@@ -106,27 +106,29 @@ TEST(JobGrid, CoversEveryPassAndPixelOnce) {
     EXPECT_EQ(grid.passesComplete(merged), 0u);
     for (uint32_t t = 0; t < grid.tileCount(); ++t) merged[2 * grid.tileCount() + t] = true;
     EXPECT_EQ(grid.passesComplete(merged), 1u);  // the last chunk holds pass 6 only
-    EXPECT_THROW(JobGrid(0, 1, 1, 1, 1), Error);
-    EXPECT_THROW(JobGrid(1, 1, 1, 0, 1), Error);
+    EXPECT_THROW(JobGrid(TileGrid(0, 1, 1, 1), 1, 1), Error);
+    EXPECT_THROW(JobGrid(TileGrid(1, 1, 1, 1), 0, 1), Error);
+    EXPECT_THROW(JobGrid(TileGrid(), 1, 1), Error) << "no tiles";
 }
 
 // Counts that overflowed 32 bits gave a job of zero units (shown done with a black image) or
 // an index past the end of the merged flags (a crash at every status call).
 TEST(JobGrid, CountsNeverWrap) {
-    const JobGrid oneChunk(64, 64, 64, 3, UINT32_MAX);
+    const JobGrid oneChunk(TileGrid(64, 64, 64, 1), 3, UINT32_MAX);
     EXPECT_EQ(oneChunk.chunkCount(), 1u);
     EXPECT_EQ(oneChunk.unitCount(), 1u);
     EXPECT_EQ(oneChunk.unit(0).passBegin, 0u);
     EXPECT_EQ(oneChunk.unit(0).passEnd, 3u);
     EXPECT_EQ(oneChunk.passesComplete({true}), 3u);
-    const JobGrid lastChunk(1, 1, 1, UINT32_MAX, UINT32_MAX - 1);
+    const JobGrid lastChunk(TileGrid(1, 1, 1, 1), UINT32_MAX, UINT32_MAX - 1);
     EXPECT_EQ(lastChunk.unitCount(), 2u);
     EXPECT_EQ(lastChunk.unit(1).passBegin, UINT32_MAX - 1);
     EXPECT_EQ(lastChunk.unit(1).passEnd, UINT32_MAX);
     EXPECT_EQ(lastChunk.chunkPasses(1), 1u);
     // 4096 one-pixel tiles x 2^20 passes = 2^32 units: refused, not wrapped to 0.
-    EXPECT_THROW(JobGrid(64, 64, 1, 1u << 20, 1), Error);
-    EXPECT_EQ(JobGrid(64, 64, 1, (1u << 20) - 1, 1).unitCount(), 4096u * ((1u << 20) - 1));
+    EXPECT_THROW(JobGrid(TileGrid(64, 64, 1, 1), 1u << 20, 1), Error);
+    EXPECT_EQ(JobGrid(TileGrid(64, 64, 1, 1), (1u << 20) - 1, 1).unitCount(),
+              4096u * ((1u << 20) - 1));
     EXPECT_THROW(oneChunk.passesComplete({true, false}), Error);
 }
 

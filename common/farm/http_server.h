@@ -1,6 +1,6 @@
-// The daemons' one HTTP server (cpp-httplib from Debian): /metrics now, the coordinator's web
-// dashboard later. Off unless a daemon is given --http-listen. It speaks TLS with the daemon's
-// certificate when it has one, and each route names the bearer tokens it accepts
+// The daemons' one HTTP server (cpp-httplib from Debian): /metrics, and the coordinator's web
+// dashboard and its API. Off unless a daemon is given --http-listen. It speaks TLS with the
+// daemon's certificate when it has one, and each route names the bearer tokens it accepts
 // (`Authorization: Bearer <token>`), or is explicitly open to anyone.
 //
 // A request that no route's token authorizes is answered 401 before routing, whatever its path,

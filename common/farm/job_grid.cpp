@@ -2,19 +2,20 @@
 
 #include "common/core/error.h"
 
+#include <utility>
+
 namespace alphorn::farm {
 
-JobGrid::JobGrid(int width, int height, int tileSize, uint32_t passes, uint32_t passesPerUnit)
-    : m_width(width), m_height(height), m_passes(passes), m_passesPerUnit(passesPerUnit) {
-    if (width <= 0 || height <= 0) fail("image size must be positive, got %dx%d", width, height);
+JobGrid::JobGrid(TileGrid tiles, uint32_t passes, uint32_t passesPerUnit)
+    : m_tiles(std::move(tiles)), m_passes(passes), m_passesPerUnit(passesPerUnit) {
+    if (m_tiles.tiles().empty()) fail("a job's grid needs tiles");
     if (passes == 0) fail("the number of passes must be positive");
     if (passesPerUnit == 0) fail("passes per unit must be positive");
-    m_tiles = makeTiles(width, height, tileSize);
     const uint64_t chunks = (uint64_t(passes) + passesPerUnit - 1) / passesPerUnit;
-    const uint64_t units = chunks * m_tiles.size();
+    const uint64_t units = chunks * m_tiles.tiles().size();
     if (units > UINT32_MAX)
         fail("%u passes in chunks of %u over %u tiles make %u units, more than %u", passes,
-             passesPerUnit, m_tiles.size(), units, UINT32_MAX);
+             passesPerUnit, m_tiles.tiles().size(), units, UINT32_MAX);
     m_chunkCount = static_cast<uint32_t>(chunks);
 }
 
@@ -26,7 +27,7 @@ RenderUnit JobGrid::unit(uint32_t index) const {
     unit.passBegin = chunk * m_passesPerUnit;  // < m_passes, so no overflow
     unit.passEnd = static_cast<uint32_t>(
         std::min<uint64_t>(m_passes, uint64_t(unit.passBegin) + m_passesPerUnit));
-    unit.tile = m_tiles[index % tileCount()];
+    unit.tile = m_tiles.tiles()[index % tileCount()];
     return unit;
 }
 

@@ -1,5 +1,7 @@
 // How a job is split into units: a fixed grid of pass chunks x tiles, chosen at submission and
 // never changed, so unit ids stay meaningful across coordinator restarts and worker retries.
+// The tiles and their blocks are a TileGrid, the one renderLocal renders along; this adds the
+// pass chunks and the unit ids.
 #pragma once
 
 #include "common/render/unit.h"
@@ -12,15 +14,16 @@ namespace alphorn::farm {
 class JobGrid {
   public:
     JobGrid() = default;
-    // Throws Error on non-positive sizes, passes or tile size, and when the grid would have more
+    // Throws Error on a grid without tiles, non-positive passes, and when the grid would have more
     // units than a 32-bit unit index can name (counts are computed in 64 bits, never wrapped).
-    JobGrid(int width, int height, int tileSize, uint32_t passes, uint32_t passesPerUnit);
+    JobGrid(TileGrid tiles, uint32_t passes, uint32_t passesPerUnit);
 
-    int width() const { return m_width; }
-    int height() const { return m_height; }
+    const TileGrid& tiles() const { return m_tiles; }
+    int width() const { return m_tiles.width(); }
+    int height() const { return m_tiles.height(); }
     uint32_t passes() const { return m_passes; }
     uint32_t passesPerUnit() const { return m_passesPerUnit; }
-    uint32_t tileCount() const { return static_cast<uint32_t>(m_tiles.size()); }
+    uint32_t tileCount() const { return static_cast<uint32_t>(m_tiles.tiles().size()); }
     uint32_t chunkCount() const { return m_chunkCount; }
     uint32_t unitCount() const { return m_chunkCount * tileCount(); }
 
@@ -34,9 +37,8 @@ class JobGrid {
     uint32_t passesComplete(const std::vector<bool>& merged) const;
 
   private:
-    int m_width = 0, m_height = 0;
+    TileGrid m_tiles;
     uint32_t m_passes = 0, m_passesPerUnit = 1, m_chunkCount = 0;
-    std::vector<Tile> m_tiles;
 };
 
 }  // namespace alphorn::farm

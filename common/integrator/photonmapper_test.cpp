@@ -132,7 +132,7 @@ TEST_F(PhotonMapperTest, FewerPhotonsThanKUseTheSearchRadius) {
 // Progressive photon mapping: on a region without bias (the furnace, where irradiance is
 // uniform), the standard deviation over independent seeds of the average of N passes falls as
 // N^(-alpha/2): the variance of pass i grows as 1/r_i² ~ i^(1 - alpha), so the variance of the
-// average as N^(-alpha). VALIDATION.md: about -0.25 for alpha = 0.5. The expected slopes between
+// average as N^(-alpha): about -0.25 for alpha = 0.5. The expected slopes between
 // 16 and 1024 passes, from the exact radii (sum of 1/r_i², closed form), are -0.257 for alpha
 // 0.5 and -0.452 for alpha 0.9: measuring both shows the test resolves the schedule (a radius
 // that never shrank would give -0.5, one with r² ~ 1/i, 0). Measured at one point (the centre

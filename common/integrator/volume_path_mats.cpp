@@ -1,12 +1,12 @@
 // <integrator type="volume_path_mats">: volumetric path tracing by phase-function and BSDF
-// sampling only (the report's integrator): light is found only where a path hits an emitter, so
+// sampling only: light is found only where a path hits an emitter, so
 // delta lights (point, spotlight, projector) stay dark — use volume_path_mis for them. Media
 // are sampled by free-flight distance (closed form when homogeneous, delta tracking otherwise);
 // see volume.h for the loop and media_traversal.h for the medium bookkeeping.
 //
-// `progressive` (boolean, the report's): its live preview maps onto our passes — every render
-// is a sum of one-sample passes already — so it is accepted and changes nothing.
-// A scene without media or null surfaces is rendered by path_mats's own loop (see
+// `progressive` (boolean, which scenes written for a progressive renderer set): its live preview
+// maps onto our passes — every render is a sum of one-sample passes already — so it is accepted and
+// changes nothing. A scene without media or null surfaces is rendered by path_mats's own loop (see
 // needsVolumetricPaths in media_traversal.h).
 #include "common/integrator/integrator.h"
 #include "common/integrator/path.h"

@@ -90,9 +90,10 @@ TEST(VolumePath, ZeroDensityRendersExactlyLikeVacuum) {
     }
 }
 
-// The chromatic sphere of the report (sigmaS (1.8, 1.8, 0.2), sigmaA (0.2, 0.2, 1.8)) against
-// grey spheres with the coefficients of its red/green and of its blue channel. Two-sample
-// z-tests per channel at |z| < 3.5 (fixed streams, so the outcome is deterministic).
+// The chromatic sphere of scenes/seed/medium_sphere_chromatic.xml (sigmaS (1.8, 1.8, 0.2), sigmaA
+// (0.2, 0.2, 1.8)) against grey spheres with the coefficients of its red/green and of its blue
+// channel. Two-sample z-tests per channel at |z| < 3.5 (fixed streams, so the outcome is
+// deterministic).
 TEST(VolumePath, ChromaticMediumMatchesPerChannelGreyMedia) {
     auto sphere = [](const std::string& s, const std::string& a) {
         return absl::StrFormat(

@@ -2,7 +2,7 @@
 // `sigmaA` (RGB, per unit length, >= 0), extinction sigmaT = sigmaS + sigmaA.
 //
 // No tracking: free-flight distances and transmittance are closed forms. The extinction may
-// differ per channel (the report's tracer required it equal): the distance is drawn from
+// differ per channel: the distance is drawn from
 // sigmaT[h] exp(-sigmaT[h] t) of the path's hero channel h and the path is weighted by the
 // average density over the channels (spectral MIS, see MediumSample):
 //

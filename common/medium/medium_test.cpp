@@ -1,4 +1,4 @@
-// Media against closed forms (VALIDATION.md): Beer–Lambert transmittance, the exponential
+// Media against closed forms: Beer–Lambert transmittance, the exponential
 // atmosphere's optical depth (s0/k)(e^(-k z0) - e^(-k z1)), the ratio-tracking variance
 // exp(-2cd)(exp(c^2 d/mu) - 1), free-flight distances by chi-square, chromatic media per channel,
 // constant heterogeneous == homogeneous, zero density == vacuum (no random numbers), dense media
@@ -110,7 +110,7 @@ TEST(HomogeneousMedium, TransmittanceIsBeerLambertAndDrawsNothing) {
     EXPECT_EQ(inf[0], 0.0f);
     EXPECT_EQ(inf[1], 1.0f);
     EXPECT_EQ(inf[2], 1.0f);
-    // VALIDATION.md's slab values.
+    // A unit slab: e^-1 (sigmaT = 1) and e^-3 (sigmaT = 3).
     EXPECT_NEAR(homogeneous("0.5", "0.5")->transmittance(kRay, 1.0f, sampler)[0], 0.367879f, 1e-6f);
     EXPECT_NEAR(homogeneous("1", "2")->transmittance(kRay, 1.0f, sampler)[0], 0.049787f, 1e-6f);
 }
@@ -208,7 +208,7 @@ TEST(HeterogeneousMedium, ConstantCoefficientsRenderAsHomogeneous) {
 }
 
 // Ratio tracking with density c under majorant mu along d: mean e^(-cd), variance
-// e^(-2cd)(e^(c^2 d / mu) - 1) (VALIDATION.md). The variance of the sample variance is estimated
+// e^(-2cd)(e^(c^2 d / mu) - 1). The variance of the sample variance is estimated
 // from the fourth central moment.
 TEST(HeterogeneousMedium, RatioTrackingMeanAndVarianceMatchTheFormula) {
     const double c = 1.0, mu = 2.0, d = 1.0;

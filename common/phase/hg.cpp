@@ -3,8 +3,9 @@
 //     p(cos t) = (1 - g^2) / (4 pi (1 + g^2 - 2 g cos t)^(3/2)),
 //
 // where t is the angle between the light's direction of travel before (-wi) and after (wo) the
-// scattering event: g > 0 scatters forward, g < 0 backward, g = 0 is isotropic. VALIDATION.md's
-// check of the sign: for g = 0.9 a fraction 0.977097 of samples have cos t > 0.
+// scattering event: g > 0 scatters forward, g < 0 backward, g = 0 is isotropic. A check of
+// the sign: for g = 0.9 a fraction 0.977097 of samples have cos t > 0 (the integral of p over
+// the forward hemisphere).
 //
 // g must lie in the open interval (-1, 1): at |g| = 1 the function is a delta (light passes
 // unscattered, which a medium with smaller sigmaS models exactly) and the formula divides 0 by

@@ -1,5 +1,5 @@
 // Phase functions against their own densities (chi-square), against closed forms (normalisation,
-// mean cosine = g, VALIDATION.md's forward fraction for g = 0.9, which catches a flipped sign
+// mean cosine = g, the forward fraction for g = 0.9, which catches a flipped sign
 // that the furnace cannot see) and at the edges of the parameter range.
 #include "common/phase/phase.h"
 #include "common/core/rng.h"
@@ -82,7 +82,8 @@ TEST(PhaseFunction, NormalisedAndReciprocal) {
     }
 }
 
-// Mean cosine g and, for g = 0.9, the forward fraction 0.977097 (VALIDATION.md), measured on
+// Mean cosine g and, for g = 0.9, the forward fraction 0.977097 (the integral of the density
+// over cos t > 0), measured on
 // the angle between the directions of travel -wi and wo. Binomial and mean tolerances are five
 // standard errors.
 TEST(PhaseFunction, HenyeyGreensteinMeanCosineAndForwardFraction) {

@@ -1,7 +1,7 @@
 // The radius schedule against two independent references: the Knaus–Zwicker recurrence
 // r²(N + 1) = r²(N)(N + α)/(N + 1) multiplied out in long double (64-bit mantissa, so 10⁷
-// factors drift by at most ~10⁻¹², far below the 10⁻⁹ asked for), and the values quoted in
-// VALIDATION.md.
+// factors drift by at most ~10⁻¹², far below the 10⁻⁹ asked for), and the closed form for
+// α = 1/2, r²(N)/r²(1) = Γ(N + 1/2) / (Γ(3/2) N!), evaluated independently to 9 digits.
 #include "common/photon/radius_schedule.h"
 
 #include <gtest/gtest.h>
@@ -32,8 +32,9 @@ TEST(RadiusSchedule, MatchesTheRecurrenceUpToTenMillionPasses) {
     expectMatchesRecurrence(0.1);
 }
 
-TEST(RadiusSchedule, MatchesTheValuesOfValidationMd) {
-    // Quoted to 9 significant digits there, so compare to half a unit of the last digit.
+TEST(RadiusSchedule, MatchesTheClosedFormForAlphaOneHalf) {
+    // Γ(N + 1/2) / (Γ(3/2) N!) to 9 significant digits, so compare to half a unit of the last
+    // digit.
     EXPECT_NEAR(progressiveRadiusSquaredRatio(10, 0.5), 0.352394104, 5e-10);
     EXPECT_NEAR(progressiveRadiusSquaredRatio(1000, 0.5), 0.0356780223, 5e-11);
     EXPECT_NEAR(progressiveRadiusSquaredRatio(1'000'000, 0.5), 0.00112837903, 5e-12);

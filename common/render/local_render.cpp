@@ -6,7 +6,6 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <cmath>
 #include <mutex>
 
 namespace alphorn {
@@ -16,18 +15,12 @@ FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
                       RenderStatus* finalStatus) {
     const Vector2i size = scene.camera()->outputSize();
     FilmBlock film(0, 0, size.x(), size.y());
-    std::vector<Tile> tiles = makeTiles(size.x(), size.y(), settings.tileSize);
-    if (settings.crop) {
-        // A sample splats into pixels up to the filter's radius away (as makeUnitBlock's border
-        // allows), so the crop needs the tiles within that reach of it, whole: a tile's pixels
-        // are sampled the same whichever tiles are rendered with it.
-        const int reach = static_cast<int>(std::ceil(scene.camera()->filter()->radius() + 0.5f));
-        const Tile& c = *settings.crop;
-        std::erase_if(tiles, [&](const Tile& t) {
-            return t.x1 <= c.x0 - reach || t.x0 >= c.x1 + reach || t.y1 <= c.y0 - reach ||
-                   t.y0 >= c.y1 + reach;
-        });
-    }
+    // The farm's grid (farm::JobGrid cuts a job along the same one).
+    const TileGrid grid(scene, settings.tileSize);
+    // A crop needs the tiles whose samples reach it, whole: a tile's pixels are sampled the same
+    // whichever tiles are rendered with it.
+    const std::vector<Tile> tiles =
+        settings.crop ? grid.tilesReaching(*settings.crop) : grid.tiles();
     if (settings.adaptive && settings.crop) fail("adaptive passes do not combine with a crop");
     // The adaptive grid's tiles, and what is rendered: each render tile cut along that grid, so
     // that a finished grid tile's pixels get no more samples whatever the render tile size.
@@ -77,7 +70,7 @@ FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
         const auto passData = preparePasses(scene, settings.seed, begin, end);
         tbb::parallel_for(size_t(0), running.size(), [&](size_t i) {
             RenderUnit unit{begin, end, running[i].tile};
-            FilmBlock block = makeUnitBlock(scene, unit.tile);
+            FilmBlock block = grid.block(unit.tile);
             renderUnit(scene, settings.seed, unit, passData, block, &counters);
             std::lock_guard lock(filmMutex);
             film.add(block);

@@ -22,13 +22,39 @@ int filterBorder(const Scene& scene) {
     return static_cast<int>(std::ceil(scene.camera()->filter()->radius() + 0.5f));
 }
 
+Tile grownTile(const Tile& tile, int border) {
+    return Tile{tile.x0 - border, tile.y0 - border, tile.x1 + border, tile.y1 + border};
+}
+
 FilmBlock unitBlock(const Tile& tile, int border) {
-    return FilmBlock(tile.x0 - border, tile.y0 - border, tile.width() + 2 * border,
-                     tile.height() + 2 * border);
+    const Tile grown = grownTile(tile, border);
+    return FilmBlock(grown.x0, grown.y0, grown.width(), grown.height());
 }
 
 FilmBlock makeUnitBlock(const Scene& scene, const Tile& tile) {
     return unitBlock(tile, filterBorder(scene));
+}
+
+TileGrid::TileGrid(int width, int height, int tileSize, int border)
+    : m_width(width), m_height(height), m_border(border) {
+    if (width <= 0 || height <= 0) fail("image size must be positive, got %dx%d", width, height);
+    if (border < 0) fail("the filter border must not be negative, got %d", border);
+    m_tiles = makeTiles(width, height, tileSize);
+}
+
+TileGrid::TileGrid(const Scene& scene, int tileSize)
+    : TileGrid(scene.camera()->outputSize().x(), scene.camera()->outputSize().y(), tileSize,
+               filterBorder(scene)) {}
+
+std::vector<Tile> TileGrid::tilesReaching(const Tile& region) const {
+    std::vector<Tile> reaching;
+    for (const Tile& tile : m_tiles) {
+        const Tile reach = grownTile(tile, m_border);
+        if (reach.x0 < region.x1 && region.x0 < reach.x1 && reach.y0 < region.y1 &&
+            region.y0 < reach.y1)
+            reaching.push_back(tile);
+    }
+    return reaching;
 }
 
 std::vector<std::shared_ptr<const PassData>> preparePasses(const Scene& scene, uint64_t seed,

@@ -31,11 +31,39 @@ std::vector<Tile> makeTiles(int width, int height, int tileSize);
 // How many pixels beyond its own a sample's filtered contribution can reach: the border around
 // a unit's tile.
 int filterBorder(const Scene& scene);
-// The film block of a unit whose tile is `tile`: the tile grown by `border` pixels on each side.
+// The tile grown by `border` pixels on each side: the pixels a unit over `tile` can write.
+Tile grownTile(const Tile& tile, int border);
+// The film block of a unit whose tile is `tile`: over grownTile(tile, border).
 // The coordinator, which keeps a job's border rather than its scene, checks results against it.
 FilmBlock unitBlock(const Tile& tile, int border);
 // The film block a unit writes: unitBlock(tile, filterBorder(scene)).
 FilmBlock makeUnitBlock(const Scene& scene, const Tile& tile);
+
+// The tiles an image is rendered in, the same for a local render (renderLocal) and a farm job
+// (farm::JobGrid, which adds the pass chunks and unit ids): makeTiles(width, height, tileSize),
+// each rendered into its block, the tile grown by `border` pixels on each side (unitBlock).
+class TileGrid {
+  public:
+    TileGrid() = default;
+    // Throws Error on a non-positive image or tile size and on a negative border.
+    TileGrid(int width, int height, int tileSize, int border);
+    // The grid of the scene's image, with its reconstruction filter's border (filterBorder).
+    TileGrid(const Scene& scene, int tileSize);
+
+    int width() const { return m_width; }
+    int height() const { return m_height; }
+    int border() const { return m_border; }
+    const std::vector<Tile>& tiles() const { return m_tiles; }
+    // The film block a unit over `tile` writes: unitBlock(tile, border()).
+    FilmBlock block(const Tile& tile) const { return unitBlock(tile, m_border); }
+    // The tiles whose blocks overlap `region`: every tile a sample of which can reach a pixel of
+    // it, in grid order.
+    std::vector<Tile> tilesReaching(const Tile& region) const;
+
+  private:
+    int m_width = 0, m_height = 0, m_border = 0;
+    std::vector<Tile> m_tiles;
+};
 
 // Counters a caller can poll while a unit renders (progress, Mrays/s).
 struct RenderCounters {
@@ -47,7 +75,8 @@ struct RenderCounters {
 std::vector<std::shared_ptr<const PassData>> preparePasses(const Scene& scene, uint64_t seed,
                                                            uint32_t begin, uint32_t end);
 
-// Renders `unit` and adds its samples into `out` (which must come from makeUnitBlock).
+// Renders `unit` and adds its samples into `out` (the unit's block: makeUnitBlock, or the block
+// of the scene's TileGrid).
 // passData[i] belongs to pass unit.passBegin + i. Returns false if cancelled midway, in which
 // case `out` holds a partial result that must be discarded.
 bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,

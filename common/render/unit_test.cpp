@@ -1,5 +1,6 @@
 #include "common/render/unit.h"
 
+#include "common/core/error.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
 #include "common/texture/plugin_testing.h"
@@ -54,6 +55,53 @@ TEST(UnitBlock, MakeUnitBlockIsUnitBlockWithTheScenesBorder) {
     EXPECT_EQ(fromScene.width(), fromBorder.width());
     EXPECT_EQ(fromScene.height(), fromBorder.height());
     EXPECT_GT(fromScene.width(), tile.width());
+}
+
+// The local renderer and a farm job cut the image alike: the tiles of makeTiles, each
+// rendered into its tile grown by the scene's filter border.
+TEST(TileGrid, IsTheTilesOfTheImageWithTheScenesBorder) {
+    const auto scene = sceneWithFilter("grid_box.xml", R"(<rfilter type="box"/>)");
+    const TileGrid grid(*scene, 3);
+    EXPECT_EQ(grid.width(), 8);
+    EXPECT_EQ(grid.height(), 8);
+    EXPECT_EQ(grid.border(), filterBorder(*scene));
+    EXPECT_EQ(grid.tiles(), makeTiles(8, 8, 3));
+    const Tile& edge = grid.tiles().back();
+    const FilmBlock block = grid.block(edge);
+    const FilmBlock expected = unitBlock(edge, grid.border());
+    EXPECT_EQ(block.x0(), expected.x0());
+    EXPECT_EQ(block.y0(), expected.y0());
+    EXPECT_EQ(block.width(), expected.width());
+    EXPECT_EQ(block.height(), expected.height());
+    EXPECT_THROW(TileGrid(0, 8, 4, 1), Error);
+    EXPECT_THROW(TileGrid(8, 8, 0, 1), Error);
+    EXPECT_THROW(TileGrid(8, 8, 4, -1), Error);
+}
+
+// A crop gets exactly the tiles that can splat into it: those whose grown tile shares a pixel
+// with it, checked pixel by pixel. Tiles of 7 grown by 2: the first column's and row's end at 9,
+// the third's start at 12, so the region [9, 12)² touches those without sharing a pixel.
+TEST(TileGrid, TilesReachingAreThoseWhoseBlocksShareAPixelWithTheRegion) {
+    const TileGrid grid(40, 30, 7, 2);
+    for (const Tile& region :
+         {Tile{0, 0, 1, 1}, Tile{9, 9, 10, 10}, Tile{12, 5, 20, 6}, Tile{39, 29, 40, 30},
+          Tile{0, 0, 40, 30}, Tile{16, 16, 17, 17}, Tile{9, 9, 12, 12}}) {
+        std::vector<Tile> expected;
+        for (const Tile& tile : grid.tiles()) {
+            const Tile grown = grownTile(tile, grid.border());
+            bool shares = false;
+            for (int y = region.y0; y < region.y1; ++y)
+                for (int x = region.x0; x < region.x1; ++x)
+                    shares =
+                        shares || (x >= grown.x0 && x < grown.x1 && y >= grown.y0 && y < grown.y1);
+            if (shares) expected.push_back(tile);
+        }
+        EXPECT_EQ(grid.tilesReaching(region), expected)
+            << region.x0 << "," << region.y0 << " " << region.x1 << "," << region.y1;
+        if (region.width() < grid.width()) {
+            EXPECT_LT(expected.size(), grid.tiles().size());
+        }
+    }
 }
 
 }  // namespace

@@ -5,7 +5,7 @@
 //                        from the float `weight` (default 0.5) or a nested texture named
 //                        "weight", clamped per channel to [0, 1]
 // Nested textures other than the weight may have any name (it labels them for the reader).
-// E.g. the report's fog: sum of a constant, an exponential3d and a perlin3d.
+// E.g. the fog of scenes/stage/stage.xml: sum of a constant, an exponential3d and a perlin3d.
 #include "common/texture/texture.h"
 
 namespace alphorn {

@@ -4,7 +4,7 @@
 //     h = max(0, z_local),   value = color1 + (color0 - color1) * exp(-falloff * h)
 //
 // so the value is color0 on and below the plane z_local = 0 and tends to color1 far along +z.
-// With color1 = 0 it is the density s0 exp(-k z) of an exponential atmosphere (VALIDATION.md).
+// With color1 = 0 it is the density s0 exp(-k z) of an exponential atmosphere.
 // Holding the value constant below z = 0 keeps it bounded (a majorant must exist for media).
 #include "common/texture/mapping.h"
 #include "common/texture/texture.h"

@@ -1,0 +1,127 @@
+// Coordinator: taking up the state directory at start. Every worker and job in the store is
+// restored; a running job's merged units come back from its checkpoint, a damaged record fails
+// only its own job, and a job whose last unit was merged before a crash is finished.
+#include "coordinator/coordinator.h"
+
+#include "coordinator/checkpoint.h"
+#include "coordinator/log.h"
+
+#include <filesystem>
+
+namespace alphorn::coordinator {
+
+namespace fs = std::filesystem;
+
+void Coordinator::resume() {
+    const double now = m_clock->wallSeconds();
+    for (const WorkerRow& row : m_store.workers()) m_workers->restore(row);
+    const std::string database = m_options.stateDirectory + "/state.sqlite";
+    for (const JobRow& row : m_store.jobs()) {
+        auto job = std::make_unique<Job>();
+        job->id = row.id;
+        job->state = static_cast<v1::JobState>(row.state);
+        job->error = row.error;
+        job->createdAt = row.createdAt;
+        job->finishedAt = row.finishedAt;
+        try {
+            job->events = EventLog(m_store.jobLog(job->id));
+        } catch (const StorageError& e) {
+            logWarning("job.log_unreadable", {field("job", job->id), field("error", e.what())});
+        }
+        try {
+            resumeJob(*job, row);
+        } catch (const std::exception& e) {
+            // One damaged record fails its job, never the coordinator or the other jobs.
+            const std::string message =
+                absl::StrFormat("cannot resume job %u from %s: %s", job->id, database, e.what());
+            logWarning("job.unresumable", {field("job", job->id), field("error", message)});
+            job->grid = farm::JobGrid();
+            job->film = std::make_unique<JobFilm>(job->grid, "");
+            job->memoryBytes = 0;
+            m_scheduler->addJob(job->id, 0, job->grid, {}, {}, false);
+            if (job->state == v1::JOB_STATE_RUNNING || job->state == v1::JOB_STATE_DONE) {
+                job->state = v1::JOB_STATE_FAILED;
+                job->error = message;
+                job->finishedAt = now;
+                m_store.setJobState(job->id, job->state, message, now);
+            }
+        }
+        m_memoryInUse += job->memoryBytes;
+        m_jobs[job->id] = std::move(job);
+    }
+    // A job whose last unit was merged but whose end was not recorded before a crash.
+    std::vector<Job*> complete;
+    for (auto& [id, job] : m_jobs)
+        if (job->state == v1::JOB_STATE_RUNNING && job->film->complete())
+            complete.push_back(job.get());
+    for (Job* job : complete) {
+        job->completing = true;
+        finishJob(*job);
+    }
+}
+
+void Coordinator::resumeJob(Job& job, const JobRow& row) {
+    if (!row.description) fail("its description is not a valid alphorn.v1.JobDescription");
+    job.description = *row.description;
+    if (job.state < v1::JOB_STATE_RUNNING || job.state > v1::JOB_STATE_CANCELLED)
+        fail("state %d is not a job state", int(job.state));
+    if (row.filterBorder < 0 || row.filterBorder > 1024)
+        fail("filter border %d is invalid", row.filterBorder);
+    const v1::JobSettings& settings = job.description.settings();
+    job.filterBorder = row.filterBorder;
+    job.grid =
+        farm::JobGrid(TileGrid(row.width, row.height, int(settings.tile_size()), row.filterBorder),
+                      settings.passes(), settings.passes_per_unit());
+    const uint32_t unitCount = job.grid.unitCount();
+    std::vector<uint32_t> attempts(unitCount, 0);
+    for (const UnitAttemptsRow& unit : m_store.unitAttempts(job.id))
+        if (unit.unitIndex < unitCount) attempts[unit.unitIndex] = unit.attempts;
+    job.film = std::make_unique<JobFilm>(job.grid, jobDirectory(job.id) + "/film.ckpt",
+                                         targetError(settings), settings.adaptive());
+    bool running = job.state == v1::JOB_STATE_RUNNING;
+    if (running || job.state == v1::JOB_STATE_DONE) {
+        const std::string checkpointPath = jobDirectory(job.id) + "/film.ckpt";
+        std::string problem;
+        if (!fs::exists(checkpointPath)) {
+            if (job.state == v1::JOB_STATE_DONE) problem = "its final checkpoint is missing";
+        } else {
+            try {
+                job.film->restore(job.film->readFile(), running);
+            } catch (const Error& e) {
+                problem = e.what();
+            }
+        }
+        if (!problem.empty()) {
+            // Every unit is a pure function of the job, so rendering again gives the same bytes.
+            logWarning("checkpoint.unreadable", {field("job", job.id), field("error", problem),
+                                                 field("action", "rendering it again")});
+            job.film->forget();
+            job.state = v1::JOB_STATE_RUNNING;
+            job.finishedAt = 0;
+            m_store.setJobState(job.id, job.state, job.error, 0);
+            running = true;
+        }
+    }
+    m_scheduler->addJob(job.id, job.description.settings().priority(), job.grid, job.film->merged(),
+                        attempts, running);
+    if (!running) return;
+    // A crash inside submit() between the job's record and its directory leaves a running job
+    // without one: it starts from nothing, and its checkpoints go there.
+    fs::create_directories(jobDirectory(job.id));
+    m_scheduler->setPaused(job.id, row.paused);
+    if (!job.film->inMemory()) {
+        const Checkpoint none{FilmBlock(0, 0, row.width, row.height), job.film->merged()};
+        job.film->restore(none, true);
+    }
+    m_scheduler->setLeaseLimit(job.id, job.film->leaseLimit());
+    job.memoryBytes = jobMemoryBytes(row.width, row.height, unitCount);
+    job.restored = job.film->mergedCount();
+    eventLocked(job, v1::JOB_EVENT_RESUMED_AFTER_RESTART,
+                absl::StrFormat("a coordinator process took the job up again: %u of %u units "
+                                "merged in its checkpoint%s",
+                                job.restored, unitCount, row.paused ? "; still paused" : ""));
+    logInfo("job.resumed", {field("job", job.id), field("units_restored", job.restored),
+                            field("units_total", unitCount)});
+}
+
+}  // namespace alphorn::coordinator

@@ -41,10 +41,19 @@ struct PixelSum {
 };
 
 inline FixedPoint toFixedPoint(double value) {
-    const double scaled = std::nearbyint(value * kFixedPointScale);
+    const double scaled = value * kFixedPointScale;
+    const double magnitude = std::abs(scaled);
+    // std::nearbyint is a libm call on x86-64 (its inline form needs SSE4.1). Below 2^52,
+    // adding and subtracting 2^52 rounds to the nearest integer, ties to even, exactly as
+    // nearbyint does in the default rounding mode; from 2^52 on every double is an integer.
+    if (magnitude < 0x1p52) {
+        const double rounded = (magnitude + 0x1p52) - 0x1p52;
+        const int64_t integer = static_cast<int64_t>(rounded);
+        return scaled < 0.0 ? -integer : integer;
+    }
     // Converting a double to a 128-bit integer is a slow libgcc call; every value in range of a
     // 64-bit integer (all but absurdly bright samples) converts exactly through int64_t instead.
-    if (std::abs(scaled) < 0x1p62) return static_cast<int64_t>(scaled);
+    if (magnitude < 0x1p62) return static_cast<int64_t>(scaled);
     return static_cast<FixedPoint>(scaled);
 }
 inline double fromFixedPoint(FixedPoint value) {

@@ -110,5 +110,30 @@ TEST(FixedPoint, ConversionIsExactOnBothSidesOfThe64BitFastPath) {
     EXPECT_EQ(toFixedPoint(-0x1p22), -(FixedPoint(1) << 62));
 }
 
+// The inline rounding below 2^52 gives nearbyint's integer for every value: halves go to the
+// even neighbour (2.5 -> 2, 3.5 -> 4, on both signs), and values just either side of a half, of
+// every magnitude up to the 2^52 boundary, round as nearbyint does.
+TEST(FixedPoint, RoundsLikeNearbyintBelowAndAbove2To52) {
+    auto reference = [](double v) { return static_cast<FixedPoint>(std::nearbyint(v * 0x1p40)); };
+    for (double half : {0.5, 1.5, 2.5, 3.5, 1e6 + 0.5, 0x1p51 + 0.5, 0x1p51 + 1.5}) {
+        for (double sign : {1.0, -1.0}) {
+            const double v = sign * half * 0x1p-40;
+            EXPECT_EQ(toFixedPoint(v), reference(v)) << v * 0x1p40;
+        }
+    }
+    EXPECT_EQ(toFixedPoint(2.5 * 0x1p-40), 2);
+    EXPECT_EQ(toFixedPoint(-3.5 * 0x1p-40), -4);
+    Rng rng(4, 5, 6, StreamPurpose::Test);
+    for (int i = 0; i < 100000; ++i) {
+        // Magnitudes from 2^-60 to 2^21 (2^61 after scaling), so both sides of 2^52.
+        const double magnitude = std::exp2(81.0 * rng.nextDouble() - 60.0);
+        const double v = rng.nextFloat() < 0.5f ? -magnitude : magnitude;
+        ASSERT_EQ(toFixedPoint(v), reference(v)) << v;
+        const double nearHalf =
+            std::nextafter((std::floor(magnitude * 0x1p40) + 0.5) * 0x1p-40, i % 2 ? 0.0 : 1.0);
+        ASSERT_EQ(toFixedPoint(nearHalf), reference(nearHalf)) << nearHalf;
+    }
+}
+
 }  // namespace
 }  // namespace alphorn

@@ -218,7 +218,7 @@ double tileMean(const FilmBlock& film, const Tile& tile, Sums which) {
 //     passes are exchangeable, so a decision on the size of their difference leaves its sign
 //     alone; a decision that also looks at its sign (a tile stopping only while its even half
 //     is the brighter) leaves the image's mean alone, so the first test cannot see it, but
-//     biases the halves every later estimate is made from: this test fails it with t = 6.9.
+//     biases the halves every later estimate is made from: this test fails it with t = 6.6.
 // Both must have mean zero by Student's t-test (Šidák-corrected to 1% for the pair). The scene:
 // 64x64 of farm_path.xml (dark background in the top tiles, the bright floor and sphere below,
 // path_mis), a target at which renders stop at different decision points.

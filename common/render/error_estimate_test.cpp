@@ -52,6 +52,50 @@ TEST(ErrorEstimate, ArithmeticOnAHandMadeFilm) {
     EXPECT_NEAR(threePasses->relativeRmse, std::sqrt(4.0 * 2.0 / 9.0 / 2.0) / 2.0, 1e-5);
 }
 
+// A one-pixel film of 4 passes whose even and odd halves have luminances `even` and `odd` (weight
+// 2 each).
+FilmBlock onePixelFilm(double even, double odd) {
+    FilmBlock film(0, 0, 1, 1);
+    PixelSum evenSum;
+    setPixel(evenSum, even, 2.0);
+    setPixel(film.oddAt(0, 0), odd, 2.0);
+    film.at(0, 0) = film.oddAt(0, 0);
+    film.at(0, 0) += evenSum;
+    return film;
+}
+
+// The bias estimates' arithmetic: the difference's expected noise taken out, divided by the
+// fraction of the bias the difference holds, related to the mean; and noise and bias adding in
+// quadrature.
+TEST(ErrorEstimate, BiasArithmeticOnHandMadeFilms) {
+    const Tile pixel{0, 0, 1, 1};
+    const FilmBlock film = onePixelFilm(2.0, 2.0);
+    // Two radii without noise: Y(r) - Y(r / sqrt 2) = 0.2 is half the bias: 0.4, over the mean 2.
+    const auto twoRadii = estimateRelativeBiasTwoRadii(film, onePixelFilm(1.8, 1.8), pixel, 4);
+    ASSERT_TRUE(twoRadii);
+    EXPECT_NEAR(*twoRadii, 0.2, 1e-6);
+    // The same mean difference (0.2) from halves differing by 0.4: (0.4)^2 / 4 of expected noise
+    // is all of the squared difference; nothing is left for bias.
+    const auto noisy = estimateRelativeBiasTwoRadii(film, onePixelFilm(2.0, 1.6), pixel, 4);
+    ASSERT_TRUE(noisy);
+    EXPECT_NEAR(*noisy, 0.0, 1e-6);
+    // Temporal, 4 passes at alpha 1/2: r^2 is 1, 3/4, 5/8, 35/64 of r_1^2; rho = (7/8) / (187/256).
+    const double rho = (7.0 / 8.0) / (187.0 / 256.0);
+    EXPECT_NEAR(temporalBiasRatio(4, 0.5), rho, 1e-12);
+    const auto temporal = estimateRelativeBiasTemporal(film, onePixelFilm(2.5, 2.5), pixel, 4, 0.5);
+    ASSERT_TRUE(temporal);
+    EXPECT_NEAR(*temporal, 0.5 / (rho - 1.0) / 2.0, 1e-5);
+    EXPECT_FALSE(estimateRelativeBiasTemporal(film, film, pixel, 2, 0.5)) << "no earlier point";
+    EXPECT_FALSE(estimateRelativeBiasTwoRadii(film, FilmBlock(0, 0, 1, 1), pixel, 4))
+        << "no samples at the second radius";
+    ErrorEstimate noise;
+    noise.relativeRmse = 0.03;
+    const ErrorEstimate total = withBias(noise, 0.04);
+    EXPECT_NEAR(total.relativeRmse, 0.05, 1e-12);
+    ASSERT_TRUE(total.relativeBias);
+    EXPECT_EQ(*total.relativeBias, 0.04);
+}
+
 TEST(ErrorEstimate, NothingWithoutTwoHalvesOrLight) {
     FilmBlock film(0, 0, 2, 2);
     EXPECT_FALSE(estimateError(film, Tile{0, 0, 2, 2}, 4)) << "no samples";
@@ -162,7 +206,7 @@ RatioTest testLogRatios(const std::vector<double>& logRatios) {
 // The estimate against the truth: the relative RMSE of renders of n passes against a reference
 // of N passes made with another seed, the reference's own noise taken out. Unbiased path
 // tracing: over eight seeds, the estimate / truth ratio is 1 and within the stated accuracy.
-TEST(ErrorEstimate, MatchesTheTrueErrorOfAnUnbiasedRender) {
+TEST(ErrorEstimateAccuracy, MatchesTheTrueErrorOfAnUnbiasedRender) {
     const int width = 40, height = 30;
     const uint32_t passes = 16, referencePasses = 256;
     const std::shared_ptr<Scene> scene = smallPathTracedScene(width, height);
@@ -213,7 +257,7 @@ std::shared_ptr<Integrator> progressivePhotonMapper(int photons, float radius,
 // estimate against the error a user can measure, not against the exact image: on this scene
 // (20x15, 2000 photons per pass, initial radius 0.3) that error is the noise, and the noise
 // estimate must be within its stated accuracy over eight seeds.
-TEST(ErrorEstimate, ProgressivePhotonMappingNoiseEstimateMatchesAShortRender) {
+TEST(ErrorEstimateAccuracy, ProgressivePhotonMappingNoiseEstimateMatchesAShortRender) {
     const int width = 20, height = 15;
     SceneOverrides overrides;
     overrides.imageSize = Vector2i(width, height);
@@ -261,7 +305,7 @@ TEST(ErrorEstimate, ProgressivePhotonMappingNoiseEstimateMatchesAShortRender) {
 // lies within the stated accuracy (measured 1.01, standard error 0.034 in the log). The temporal
 // estimate is printed beside it: as accurate on average (1.02) but with 3.5 times the spread
 // (0.12), and 0 on one seed of eight, which is why the two radii were chosen.
-TEST(ErrorEstimate, BiasEstimateCoversTheRadiusBiasOfProgressivePhotonMapping) {
+TEST(ErrorEstimateAccuracy, BiasEstimateCoversTheRadiusBiasOfProgressivePhotonMapping) {
     const int width = 40, height = 30;
     const float radius = 0.6f;
     const uint32_t passes = 16, referencePasses = 512;

@@ -22,7 +22,9 @@ echo "== unit tests under AddressSanitizer + UndefinedBehaviorSanitizer"
 # photon-mapper unit tests run under the sanitizers in well under a second) take about 2 minutes
 # each under ASan even at -O1, against 1.5 s in the release tree, where they run; so do the
 # t-tests of bdpt and vcm (VcmConvergence), whose code the other vcm tests run here; and the
-# adaptive-passes t-test over seeds (AdaptiveConvergence), whose code ErrorEstimateAdaptive runs.
+# adaptive-passes t-test over seeds (AdaptiveConvergence), whose code ErrorEstimateAdaptive runs;
+# and the error estimate's accuracy t-tests over seeds (ErrorEstimateAccuracy), whose arithmetic
+# ErrorEstimate checks on hand-made films.
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   ctest --test-dir build-sanitize --output-on-failure -j "$(nproc)" -L unit \
-  -E "ProgressiveConvergence[.]|VcmConvergence[.]|AdaptiveConvergence[.]"
+  -E "ProgressiveConvergence[.]|VcmConvergence[.]|AdaptiveConvergence[.]|ErrorEstimateAccuracy[.]"

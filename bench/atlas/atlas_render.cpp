@@ -3,7 +3,7 @@
 //
 //   bench_atlas_render render SCENE --integrator TYPE [--set KIND:NAME=VALUE]... [--size WxH]
 //       [--crop X0,Y0,X1,Y1] [--seed S] --passes N1,N2,... [--cpu-budget SECONDS]
-//       [--reference REF.exr] [--write-exr OUT.exr]
+//       [--reference REF.exr] [--write-exr OUT.exr] [--bias-probes NAME,NAME...]
 //     Replaces the scene's integrator by TYPE with the given parameters (KIND is int, float, bool
 //     or string), then renders the crop once for every pass count of the ladder, each render from
 //     pass 0 (so each point costs what a user asking for that many passes would pay). Prints one
@@ -12,7 +12,11 @@
 //     relative RMSE. The ladder stops early once the next render would push the total CPU time
 //     over the budget (CPU time: the machine may be shared, and wall time then measures the
 //     others' load as much as ours). --write-exr writes the image of the last render done
-//     (the references).
+//     (the references). --bias-probes (progressive photon mappers) also prints the two bias
+//     estimates of error_estimate.h for each render: the temporal one from a second render of
+//     half the passes, and the two-radii one from a render with the same seed whose float
+//     parameters NAME (the gather radii, given with --set) are divided by sqrt(2); both films
+//     are exactly what a renderer keeping those sums would hold.
 //
 //   bench_atlas_render compare A.exr B.exr      prints the relative RMSE of A against B
 //   bench_atlas_render average A.exr B.exr OUT.exr   writes the pixelwise mean of A and B
@@ -112,6 +116,7 @@ int renderMode(int argc, char** argv) {
     SceneOverrides overrides;
     uint64_t seed = 0;
     double cpuBudget = 0;
+    std::vector<std::string> probedRadii;
     for (int i = 3; i < argc; ++i) {
         const std::string option = argv[i];
         if (i + 1 >= argc) usageError(option + " needs a value");
@@ -136,7 +141,10 @@ int renderMode(int argc, char** argv) {
             referencePath = value;
         else if (option == "--write-exr")
             outputPath = value;
-        else
+        else if (option == "--bias-probes") {
+            std::stringstream names(value);
+            for (std::string name; std::getline(names, name, ',');) probedRadii.push_back(name);
+        } else
             usageError("unknown option " + option);
     }
     if (integratorType.empty() || ladder.empty())
@@ -145,10 +153,32 @@ int renderMode(int argc, char** argv) {
     std::shared_ptr<Scene> scene = loadScene(scenePath, {}, overrides);
     PropertyList props("atlas integrator \"" + integratorType + "\"");
     for (const std::string& parameter : parameters) setParameter(props, parameter);
-    auto integrator = std::static_pointer_cast<Integrator>(
-        ObjectFactory::create(ObjectKind::Integrator, integratorType, props));
-    integrator->activate();
-    scene->setIntegrator(std::move(integrator));
+    const auto makeIntegrator = [&](const PropertyList& properties) {
+        auto integrator = std::static_pointer_cast<Integrator>(
+            ObjectFactory::create(ObjectKind::Integrator, integratorType, properties));
+        integrator->activate();
+        return integrator;
+    };
+    scene->setIntegrator(makeIntegrator(props));
+    // The bias probes' second scene: the same, with the named radii divided by sqrt(2).
+    std::shared_ptr<Scene> smallerRadiusScene;
+    const double alpha = props.getFloat("alpha", 0.5f);
+    if (!probedRadii.empty()) {
+        PropertyList smaller("atlas integrator \"" + integratorType + "\", smaller radii");
+        for (const std::string& parameter : parameters) {
+            const std::string name = parameter.substr(0, parameter.find('='));
+            bool probed = false;
+            for (const std::string& radius : probedRadii) probed |= name == "float:" + radius;
+            if (probed)
+                smaller.setFloat(name.substr(6), props.getFloat(name.substr(6)) / std::sqrt(2.0f));
+            else
+                setParameter(smaller, parameter);
+        }
+        for (const std::string& radius : probedRadii)
+            if (!props.has(radius)) usageError("--bias-probes " + radius + ": give it with --set");
+        smallerRadiusScene = loadScene(scenePath, {}, overrides);
+        smallerRadiusScene->setIntegrator(makeIntegrator(smaller));
+    }
 
     const Vector2i size = scene->camera()->outputSize();
     Tile window{0, 0, size.x(), size.y()};
@@ -162,7 +192,9 @@ int renderMode(int argc, char** argv) {
     std::optional<Image> reference;
     if (!referencePath.empty()) reference = readEXR(referencePath);
 
-    std::printf("passes,wall_seconds,cpu_seconds,relative_rmse,predicted_relative_rmse\n");
+    std::printf(
+        "passes,wall_seconds,cpu_seconds,relative_rmse,predicted_relative_rmse,"
+        "predicted_bias_temporal,predicted_bias_two_radii\n");
     double totalCpuSeconds = 0, lastCpuSeconds = 0;
     long lastPasses = 0;
     for (const long passes : ladder) {
@@ -193,7 +225,19 @@ int renderMode(int argc, char** argv) {
         std::string predicted;
         if (const auto estimate = estimateError(film, window, uint32_t(passes)))
             predicted = std::to_string(estimate->relativeRmse);
-        std::printf("%ld,%.6f,%.6f,%s,%s\n", passes, wall, cpu, error.c_str(), predicted.c_str());
+        std::string biasTemporal, biasTwoRadii;
+        if (smallerRadiusScene) {
+            settings.passes = uint32_t(passes / 2);
+            if (const auto bias = estimateRelativeBiasTemporal(film, renderLocal(*scene, settings),
+                                                               window, uint32_t(passes), alpha))
+                biasTemporal = std::to_string(*bias);
+            settings.passes = uint32_t(passes);
+            if (const auto bias = estimateRelativeBiasTwoRadii(
+                    film, renderLocal(*smallerRadiusScene, settings), window, uint32_t(passes)))
+                biasTwoRadii = std::to_string(*bias);
+        }
+        std::printf("%ld,%.6f,%.6f,%s,%s,%s,%s\n", passes, wall, cpu, error.c_str(),
+                    predicted.c_str(), biasTemporal.c_str(), biasTwoRadii.c_str());
         std::fflush(stdout);
         if (!outputPath.empty()) writeEXR(outputPath, image);  // the last one done stays
         totalCpuSeconds += cpu;

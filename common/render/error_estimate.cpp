@@ -1,5 +1,7 @@
 #include "common/render/error_estimate.h"
 
+#include "common/photon/radius_schedule.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -33,10 +35,15 @@ struct RegionSums {
     uint64_t pixels = 0;
 };
 
-RegionSums sumRegion(const FilmBlock& film, const Tile& region, uint32_t passes) {
+// What turns a pixel's squared half difference into the squared error of its full image of
+// `passes` passes: Var(Y_even - Y_odd) = s^2 (1/n_even + 1/n_odd), the full image's is s^2 / n.
+double halvesScale(uint32_t passes) {
     const double oddPasses = passes / 2, evenPasses = passes - passes / 2;
-    // Var(Y_even - Y_odd) = s^2 (1/n_even + 1/n_odd); the full image's variance is s^2 / n.
-    const double scale = evenPasses * oddPasses / (double(passes) * double(passes));
+    return evenPasses * oddPasses / (double(passes) * double(passes));
+}
+
+RegionSums sumRegion(const FilmBlock& film, const Tile& region, uint32_t passes) {
+    const double scale = halvesScale(passes);
     RegionSums sums;
     for (int y = region.y0; y < region.y1; ++y)
         for (int x = region.x0; x < region.x1; ++x) {
@@ -65,7 +72,88 @@ std::optional<ErrorEstimate> makeEstimate(const RegionSums& sums, uint32_t passe
     return estimate;
 }
 
+// Sums a region's squared bias signal: per pixel with samples in both halves of both films,
+// difference(film, other)^2 minus its expected noise (noiseOf), with the full image's mean
+// luminance; then relates it to the mean and divides by `fraction` (E[difference] = fraction *
+// bias).
+template <typename NoiseOf>
+std::optional<double> relativeBiasFromDifferences(const FilmBlock& film, const FilmBlock& other,
+                                                  const Tile& region, uint32_t passes,
+                                                  double fraction, NoiseOf&& noiseOf) {
+    if (passes < 2 || !film.keepsHalves() || !other.keepsHalves() || !(fraction > 0.0))
+        return std::nullopt;
+    double signal = 0.0, luminanceSum = 0.0;
+    uint64_t pixels = 0;
+    for (int y = region.y0; y < region.y1; ++y)
+        for (int x = region.x0; x < region.x1; ++x) {
+            if (!film.contains(x, y) || !other.contains(x, y)) continue;
+            const PixelSum& total = film.at(x, y);
+            const PixelSum& odd = film.oddAt(x, y);
+            const PixelSum& otherTotal = other.at(x, y);
+            const PixelSum& otherOdd = other.oddAt(x, y);
+            const PixelSum even = difference(total, odd),
+                           otherEven = difference(otherTotal, otherOdd);
+            if (odd.weight <= 0 || even.weight <= 0 || otherOdd.weight <= 0 ||
+                otherEven.weight <= 0)
+                continue;
+            const double delta = pixelLuminance(total) - pixelLuminance(otherTotal);
+            signal += delta * delta - noiseOf(pixelLuminance(even), pixelLuminance(odd),
+                                              pixelLuminance(otherEven), pixelLuminance(otherOdd));
+            luminanceSum += pixelLuminance(total);
+            ++pixels;
+        }
+    if (pixels == 0 || !(luminanceSum > 0.0) || !std::isfinite(signal)) return std::nullopt;
+    const double mean = luminanceSum / double(pixels);
+    return std::sqrt(std::max(0.0, signal / double(pixels))) / fraction / mean;
+}
+
 }  // namespace
+
+ErrorEstimate withBias(ErrorEstimate noise, double relativeBias) {
+    noise.relativeRmse = std::hypot(noise.relativeRmse, relativeBias);
+    noise.relativeBias = relativeBias;
+    return noise;
+}
+
+std::optional<double> estimateRelativeBiasTwoRadii(const FilmBlock& film,
+                                                   const FilmBlock& smallerRadius,
+                                                   const Tile& region, uint32_t passes,
+                                                   double areaRatio) {
+    const double scale = halvesScale(passes);
+    // The difference of the two radii's images has its own halves: (D_even - D_odd)^2 scaled
+    // as for an image estimates its noise (the photons they share make it smaller than either
+    // image's own).
+    return relativeBiasFromDifferences(
+        film, smallerRadius, region, passes, 1.0 - areaRatio,
+        [&](double even, double odd, double smallEven, double smallOdd) {
+            const double delta = (even - smallEven) - (odd - smallOdd);
+            return scale * delta * delta;
+        });
+}
+
+double temporalBiasRatio(uint32_t passes, double alpha) {
+    double early = 0.0, all = 0.0;
+    const uint32_t half = passes / 2;
+    for (uint32_t pass = 1; pass <= passes; ++pass) {
+        const double r2 = progressiveRadiusSquaredRatio(pass, alpha);
+        all += r2;
+        if (pass <= half) early += r2;
+    }
+    return (early / half) / (all / passes);
+}
+
+std::optional<double> estimateRelativeBiasTemporal(const FilmBlock& film, const FilmBlock& earlier,
+                                                   const Tile& region, uint32_t passes,
+                                                   double alpha) {
+    if (passes < 4) return std::nullopt;
+    const double scale = halvesScale(passes);
+    // Y_earlier - Y = (Y_first - Y_second) / 2 has the variance of Y itself.
+    return relativeBiasFromDifferences(film, earlier, region, passes,
+                                       temporalBiasRatio(passes, alpha) - 1.0,
+                                       [&](double even, double odd, double, double) {
+                                           return scale * (even - odd) * (even - odd);
+                                       });
+}
 
 std::optional<ErrorEstimate> estimateError(const FilmBlock& film, const Tile& region,
                                            uint32_t passes) {

@@ -23,8 +23,11 @@
 namespace alphorn {
 
 struct ErrorEstimate {
-    uint32_t passes = 0;         // passes in the film the estimate was made from
-    double relativeRmse = 0.0;   // RMSE of the luminance / the mean luminance
+    uint32_t passes = 0;        // passes in the film the estimate was made from
+    double relativeRmse = 0.0;  // RMSE of the luminance / the mean luminance (noise and bias)
+    // The part of relativeRmse due to the bias of a progressive photon mapper's radius
+    // (withBias()), when one was estimated: relativeRmse^2 = noise^2 + relativeBias^2.
+    std::optional<double> relativeBias;
     double meanLuminance = 0.0;  // of the full image over the pixels counted
     uint64_t pixels = 0;         // pixels with samples in both halves
     // How the error has fallen: the log-log slope of the estimates at this and the previous
@@ -37,6 +40,37 @@ struct ErrorEstimate {
 // halves, or a black image (no mean to relate the error to).
 std::optional<ErrorEstimate> estimateError(const FilmBlock& film, const Tile& region,
                                            uint32_t passes);
+
+// The noise-only estimate `noise` with the bias `relativeBias` added in quadrature (the noise and
+// the bias of a pixel are independent errors: their squares add).
+ErrorEstimate withBias(ErrorEstimate noise, double relativeBias);
+
+// Bias estimates for the progressive photon mappers, whose halves by pass parity share the
+// radius schedule and so see noise only. Both relate a bias B that falls as the squared gather
+// radius (smooth radiance: the kernel's blur is of second order in r) to a difference of two
+// images whose expectations differ by a known fraction of B; each pixel's squared difference
+// has its own expected noise (from the halves) taken out, the rest is summed over the region and
+// divided by that fraction squared. Nothing when it cannot be made (as estimateError); 0 when
+// the differences are no larger than their noise.
+//
+// Two radii: `smallerRadius` holds the same passes as `film` (same seed: the same photons and
+// camera paths) gathered at radius r_i * sqrt(areaRatio). B(r sqrt(a)) = a B(r), so
+// E[Y - Y_small] = (1 - a) B. Both films must keep their halves.
+std::optional<double> estimateRelativeBiasTwoRadii(const FilmBlock& film,
+                                                   const FilmBlock& smallerRadius,
+                                                   const Tile& region, uint32_t passes,
+                                                   double areaRatio = 0.5);
+// Temporal: `earlier` holds the first passes / 2 passes of `film` (the image at the previous
+// decision point). Under the Knaus-Zwicker schedule with `alpha` the bias of the mean of n
+// passes is c * mean_{i<n} r_i^2, so E[Y_earlier - Y] = (rho - 1) B with rho the ratio of the
+// means of r_i^2 over the first passes / 2 and over all passes (temporalBiasRatio). The
+// difference is (Y_first - Y_second) / 2 of the two halves in time, whose noise is that of the
+// full image: the noise-only estimate's squared error per pixel.
+std::optional<double> estimateRelativeBiasTemporal(const FilmBlock& film, const FilmBlock& earlier,
+                                                   const Tile& region, uint32_t passes,
+                                                   double alpha);
+// rho above: mean r_i^2 over passes [0, passes / 2) over the mean over [0, passes).
+double temporalBiasRatio(uint32_t passes, double alpha);
 
 // The first pass count at which a decision is taken: the smallest of 4, 8, 16, ... and `cap`
 // above `passesDone`. `cap` when passesDone >= cap.

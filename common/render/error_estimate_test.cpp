@@ -8,6 +8,7 @@
 #include "common/render/local_render.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "common/stats/student_t.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -49,6 +50,50 @@ TEST(ErrorEstimate, ArithmeticOnAHandMadeFilm) {
     const auto threePasses = estimateError(film, Tile{0, 0, 2, 1}, 3);
     ASSERT_TRUE(threePasses);
     EXPECT_NEAR(threePasses->relativeRmse, std::sqrt(4.0 * 2.0 / 9.0 / 2.0) / 2.0, 1e-5);
+}
+
+// A one-pixel film of 4 passes whose even and odd halves have luminances `even` and `odd` (weight
+// 2 each).
+FilmBlock onePixelFilm(double even, double odd) {
+    FilmBlock film(0, 0, 1, 1);
+    PixelSum evenSum;
+    setPixel(evenSum, even, 2.0);
+    setPixel(film.oddAt(0, 0), odd, 2.0);
+    film.at(0, 0) = film.oddAt(0, 0);
+    film.at(0, 0) += evenSum;
+    return film;
+}
+
+// The bias estimates' arithmetic: the difference's expected noise taken out, divided by the
+// fraction of the bias the difference holds, related to the mean; and noise and bias adding in
+// quadrature.
+TEST(ErrorEstimate, BiasArithmeticOnHandMadeFilms) {
+    const Tile pixel{0, 0, 1, 1};
+    const FilmBlock film = onePixelFilm(2.0, 2.0);
+    // Two radii without noise: Y(r) - Y(r / sqrt 2) = 0.2 is half the bias: 0.4, over the mean 2.
+    const auto twoRadii = estimateRelativeBiasTwoRadii(film, onePixelFilm(1.8, 1.8), pixel, 4);
+    ASSERT_TRUE(twoRadii);
+    EXPECT_NEAR(*twoRadii, 0.2, 1e-6);
+    // The same mean difference (0.2) from halves differing by 0.4: (0.4)^2 / 4 of expected noise
+    // is all of the squared difference; nothing is left for bias.
+    const auto noisy = estimateRelativeBiasTwoRadii(film, onePixelFilm(2.0, 1.6), pixel, 4);
+    ASSERT_TRUE(noisy);
+    EXPECT_NEAR(*noisy, 0.0, 1e-6);
+    // Temporal, 4 passes at alpha 1/2: r^2 is 1, 3/4, 5/8, 35/64 of r_1^2; rho = (7/8) / (187/256).
+    const double rho = (7.0 / 8.0) / (187.0 / 256.0);
+    EXPECT_NEAR(temporalBiasRatio(4, 0.5), rho, 1e-12);
+    const auto temporal = estimateRelativeBiasTemporal(film, onePixelFilm(2.5, 2.5), pixel, 4, 0.5);
+    ASSERT_TRUE(temporal);
+    EXPECT_NEAR(*temporal, 0.5 / (rho - 1.0) / 2.0, 1e-5);
+    EXPECT_FALSE(estimateRelativeBiasTemporal(film, film, pixel, 2, 0.5)) << "no earlier point";
+    EXPECT_FALSE(estimateRelativeBiasTwoRadii(film, FilmBlock(0, 0, 1, 1), pixel, 4))
+        << "no samples at the second radius";
+    ErrorEstimate noise;
+    noise.relativeRmse = 0.03;
+    const ErrorEstimate total = withBias(noise, 0.04);
+    EXPECT_NEAR(total.relativeRmse, 0.05, 1e-12);
+    ASSERT_TRUE(total.relativeBias);
+    EXPECT_EQ(*total.relativeBias, 0.04);
 }
 
 TEST(ErrorEstimate, NothingWithoutTwoHalvesOrLight) {
@@ -104,11 +149,64 @@ std::vector<double> luminances(const FilmBlock& film, int width, int height) {
     return values;
 }
 
+double mean(const std::vector<double>& values) {
+    double sum = 0.0;
+    for (double value : values) sum += value;
+    return sum / double(values.size());
+}
+
+// The relative RMSE of `image` against `reference`, its squared error divided by
+// `referenceNoiseFactor` (1 + n/N for a reference of N passes of the same per-pass variance and
+// another seed: its own noise adds n/N of the render's squared error).
+double trueRelativeRmse(const std::vector<double>& image, const std::vector<double>& reference,
+                        double referenceNoiseFactor = 1.0) {
+    double squaredError = 0.0;
+    for (size_t i = 0; i < image.size(); ++i)
+        squaredError += (image[i] - reference[i]) * (image[i] - reference[i]);
+    return std::sqrt(squaredError / image.size() / referenceNoiseFactor) / mean(reference);
+}
+
+// The estimate is accurate over seeds when log(estimate / truth), one value per seed, has mean
+// zero (Student's t-test, two-sided, at 1%) and its mean lies within log(1.25) of zero
+// (equivalence: the one-sided t-tests that the mean is above -log(1.25) and below log(1.25) both
+// reject at 5%). An estimate scaled by 1.3 fails the second.
+inline constexpr double kStatedAccuracy = 1.25;
+
+struct RatioTest {
+    bool unbiased = false, withinAccuracy = false;
+    double meanLogRatio = 0.0;
+    std::string message;
+};
+
+RatioTest testLogRatios(const std::vector<double>& logRatios) {
+    const stats::MeanVariance moments = stats::meanAndVariance(logRatios.data(), logRatios.size());
+    const double n = double(logRatios.size());
+    const double standardError = std::sqrt(moments.variance / n);
+    RatioTest result;
+    result.meanLogRatio = moments.mean;
+    // Log ratios are of order 0.1: the t-test's variance floor (1e-5) is far below their
+    // variance, so it compares with the measured one.
+    const stats::TTestResult zero =
+        stats::studentTTest(moments.mean, moments.variance, 0.0, logRatios.size(), 0.01);
+    result.unbiased = zero.passed;
+    const double margin = std::log(kStatedAccuracy) - std::abs(moments.mean);
+    const double t = standardError > 0.0 ? margin / standardError : HUGE_VAL;
+    const double oneSidedP = t > 0.0 ? 0.5 * stats::studentTTwoSidedPValue(t, n - 1.0) : 1.0;
+    result.withinAccuracy = margin > 0.0 && oneSidedP < 0.05;
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "mean log(estimate/truth) %.4f (ratio %.3f), standard error %.4f over %zu seeds; "
+                  "t-test against 0: %s; within log(%.2f): one-sided p %.3g",
+                  moments.mean, std::exp(moments.mean), standardError, logRatios.size(),
+                  zero.passed ? "passed" : "failed", kStatedAccuracy, oneSidedP);
+    result.message = line;
+    return result;
+}
+
 // The estimate against the truth: the relative RMSE of renders of n passes against a reference
-// of N passes made with another seed. The reference's own noise adds n/N of the render's mean
-// squared error to the measured one (same per-pass variance, independent), which is taken out.
-// Unbiased path tracing: the estimate must be within 25% of the truth, for each seed.
-TEST(ErrorEstimate, MatchesTheTrueErrorOfAnUnbiasedRender) {
+// of N passes made with another seed, the reference's own noise taken out. Unbiased path
+// tracing: over eight seeds, the estimate / truth ratio is 1 and within the stated accuracy.
+TEST(ErrorEstimateAccuracy, MatchesTheTrueErrorOfAnUnbiasedRender) {
     const int width = 40, height = 30;
     const uint32_t passes = 16, referencePasses = 256;
     const std::shared_ptr<Scene> scene = smallPathTracedScene(width, height);
@@ -116,53 +214,57 @@ TEST(ErrorEstimate, MatchesTheTrueErrorOfAnUnbiasedRender) {
     settings.seed = 1000;
     settings.passes = referencePasses;
     const std::vector<double> reference = luminances(renderLocal(*scene, settings), width, height);
-    double referenceMean = 0.0;
-    for (double y : reference) referenceMean += y / reference.size();
-    for (uint64_t seed : {1, 2, 3, 4}) {
+    std::vector<double> logRatios;
+    for (uint64_t seed = 1; seed <= 8; ++seed) {
         settings.seed = seed;
         settings.passes = passes;
         RenderStatus status;
         const FilmBlock film = renderLocal(*scene, settings, {}, nullptr, &status);
         ASSERT_TRUE(status.estimate);
         EXPECT_EQ(status.estimate->passes, passes);
-        const std::vector<double> image = luminances(film, width, height);
-        double squaredError = 0.0;
-        for (size_t i = 0; i < image.size(); ++i)
-            squaredError += (image[i] - reference[i]) * (image[i] - reference[i]);
-        squaredError /= image.size() * (1.0 + double(passes) / referencePasses);
-        const double truth = std::sqrt(squaredError) / referenceMean;
-        const double ratio = status.estimate->relativeRmse / truth;
-        EXPECT_GT(ratio, 0.75) << "seed " << seed << ": estimate " << status.estimate->relativeRmse
-                               << ", truth " << truth;
-        EXPECT_LT(ratio, 1.25) << "seed " << seed << ": estimate " << status.estimate->relativeRmse
-                               << ", truth " << truth;
+        EXPECT_FALSE(status.estimate->relativeBias) << "an unbiased render has no bias estimate";
+        const double truth = trueRelativeRmse(luminances(film, width, height), reference,
+                                              1.0 + double(passes) / referencePasses);
+        logRatios.push_back(std::log(status.estimate->relativeRmse / truth));
         std::printf("seed %llu: estimated relative RMSE %.4f, true %.4f, ratio %.3f\n",
-                    (unsigned long long)seed, status.estimate->relativeRmse, truth, ratio);
+                    (unsigned long long)seed, status.estimate->relativeRmse, truth,
+                    status.estimate->relativeRmse / truth);
     }
+    const RatioTest test = testLogRatios(logRatios);
+    std::printf("%s\n", test.message.c_str());
+    EXPECT_TRUE(test.unbiased) << test.message;
+    EXPECT_TRUE(test.withinAccuracy) << test.message;
+}
+
+std::shared_ptr<Integrator> progressivePhotonMapper(int photons, float radius,
+                                                    const char* directLight = "nee") {
+    PropertyList props;
+    props.setInteger("photonCount", photons);
+    props.setFloat("surfacePhotonRadius", radius);
+    props.setBoolean("progressive", true);
+    props.setString("directLight", directLight);
+    auto integrator = std::static_pointer_cast<Integrator>(
+        ObjectFactory::create(ObjectKind::Integrator, "photonmapper", props));
+    integrator->activate();
+    return integrator;
 }
 
 // Progressive photon mapping is biased: the halves (odd and even passes, with the same shrinking
-// radii) differ by noise only, so the estimate misses the bias of the radius. Measured here
+// radii) differ by noise only, so the noise estimate misses the bias of the radius. Measured here
 // against a reference of 64 passes of the same method with another seed (a point light's
-// caustic through glass, which no path tracer here renders); its radius has shrunk further, but
-// it shares the bias that remains, so this bounds the estimate against the error a user can
-// measure, not against the exact image. The factor is documented in docs/error-estimate.md.
-TEST(ErrorEstimate, ProgressivePhotonMappingEstimateCoversTheNoiseOnly) {
-    const float kRadius = 0.3f;
+// caustic through glass, which no path tracer here renders), its own estimated noise taken out;
+// its radius has shrunk further, but it shares the bias that remains, so this bounds the
+// estimate against the error a user can measure, not against the exact image: on this scene
+// (20x15, 2000 photons per pass, initial radius 0.3) that error is the noise, and the noise
+// estimate must be within its stated accuracy over eight seeds.
+TEST(ErrorEstimateAccuracy, ProgressivePhotonMappingNoiseEstimateMatchesAShortRender) {
     const int width = 20, height = 15;
     SceneOverrides overrides;
     overrides.imageSize = Vector2i(width, height);
     const std::shared_ptr<Scene> scene =
         loadScene(ALPHORN_SOURCE_DIR "/tests/cli/scenes/ok_photonmapper.xml", {}, overrides);
-    PropertyList props;
-    props.setInteger("photonCount", 2000);
-    props.setFloat("surfacePhotonRadius", kRadius);
-    props.setBoolean("progressive", true);
-    auto integrator = std::static_pointer_cast<Integrator>(
-        ObjectFactory::create(ObjectKind::Integrator, "photonmapper", props));
-    integrator->activate();
-    scene->setIntegrator(integrator);
-    const uint32_t referencePasses = 64;
+    scene->setIntegrator(progressivePhotonMapper(2000, 0.3f));
+    const uint32_t referencePasses = 64, passes = 16;
     RenderSettings settings;
     settings.seed = 1000;
     settings.passes = referencePasses;
@@ -170,28 +272,94 @@ TEST(ErrorEstimate, ProgressivePhotonMappingEstimateCoversTheNoiseOnly) {
     const std::vector<double> reference =
         luminances(renderLocal(*scene, settings, {}, nullptr, &referenceStatus), width, height);
     ASSERT_TRUE(referenceStatus.estimate);
-    double referenceMean = 0.0;
-    for (double y : reference) referenceMean += y / reference.size();
-    std::printf("photonmapper reference, %u passes: estimated relative RMSE %.4f\n",
-                referencePasses, referenceStatus.estimate->relativeRmse);
-    for (uint32_t passes : {4u, 16u}) {
-        settings.seed = 1;
+    const double referenceNoise = referenceStatus.estimate->relativeRmse;
+    std::vector<double> logRatios;
+    for (uint64_t seed = 1; seed <= 8; ++seed) {
+        settings.seed = seed;
         settings.passes = passes;
         RenderStatus status;
         const std::vector<double> image =
             luminances(renderLocal(*scene, settings, {}, nullptr, &status), width, height);
         ASSERT_TRUE(status.estimate);
-        double squaredError = 0.0;
-        for (size_t i = 0; i < image.size(); ++i)
-            squaredError += (image[i] - reference[i]) * (image[i] - reference[i]);
-        const double truth = std::sqrt(squaredError / image.size()) / referenceMean;
-        const double ratio = status.estimate->relativeRmse / truth;
-        std::printf(
-            "photonmapper, %u passes: estimated relative RMSE %.4f, true %.4f, ratio %.3f\n",
-            passes, status.estimate->relativeRmse, truth, ratio);
-        EXPECT_GT(ratio, 0.75) << passes << " passes";
-        EXPECT_LT(ratio, 1.25) << passes << " passes";
+        const double measured = trueRelativeRmse(image, reference);
+        const double truth =
+            std::sqrt(std::max(0.0, measured * measured - referenceNoise * referenceNoise));
+        logRatios.push_back(std::log(status.estimate->relativeRmse / truth));
+        std::printf("photonmapper seed %llu, %u passes: estimated %.4f, true %.4f, ratio %.3f\n",
+                    (unsigned long long)seed, passes, status.estimate->relativeRmse, truth,
+                    status.estimate->relativeRmse / truth);
     }
+    const RatioTest test = testLogRatios(logRatios);
+    std::printf("%s\n", test.message.c_str());
+    EXPECT_TRUE(test.unbiased) << test.message;
+    EXPECT_TRUE(test.withinAccuracy) << test.message;
+}
+
+// Where the radius's bias dominates, the noise estimate is far below the truth and the estimate
+// with the bias added is not: diffuse surfaces under an area light (farm_path.xml, 40x30), all
+// light from photons (directLight "photons": the sphere's shadow and the light's falloff are
+// blurred by the gather disk), 20,000 photons per pass, a first radius of 0.6 on a floor 8
+// wide, against an unbiased path-traced reference of 512 passes (its own noise taken out). Over
+// eight seeds of 16 passes, log(noise estimate / truth) is far from zero (the t-test rejects it;
+// measured ratio 0.38), while the noise with the two-radii bias estimate added has mean zero and
+// lies within the stated accuracy (measured 1.01, standard error 0.034 in the log). The temporal
+// estimate is printed beside it: as accurate on average (1.02) but with 3.5 times the spread
+// (0.12), and 0 on one seed of eight, which is why the two radii were chosen.
+TEST(ErrorEstimateAccuracy, BiasEstimateCoversTheRadiusBiasOfProgressivePhotonMapping) {
+    const int width = 40, height = 30;
+    const float radius = 0.6f;
+    const uint32_t passes = 16, referencePasses = 512;
+    const std::shared_ptr<Scene> scene = smallPathTracedScene(width, height);
+    RenderSettings settings;
+    settings.seed = 1000;
+    settings.passes = referencePasses;
+    RenderStatus referenceStatus;
+    const std::vector<double> reference =
+        luminances(renderLocal(*scene, settings, {}, nullptr, &referenceStatus), width, height);
+    ASSERT_TRUE(referenceStatus.estimate);
+    const double referenceNoise = referenceStatus.estimate->relativeRmse;
+    scene->setIntegrator(progressivePhotonMapper(20000, radius, "photons"));
+    const std::shared_ptr<Scene> smaller = smallPathTracedScene(width, height);
+    smaller->setIntegrator(progressivePhotonMapper(20000, radius / std::sqrt(2.0f), "photons"));
+    const Tile region{0, 0, width, height};
+    std::vector<double> noiseLogRatios, temporalLogRatios, twoRadiiLogRatios;
+    for (uint64_t seed = 1; seed <= 8; ++seed) {
+        settings.seed = seed;
+        settings.passes = passes;
+        RenderStatus status;
+        const FilmBlock film = renderLocal(*scene, settings, {}, nullptr, &status);
+        ASSERT_TRUE(status.estimate);
+        const FilmBlock smallerFilm = renderLocal(*smaller, settings);
+        settings.passes = passes / 2;
+        const FilmBlock earlier = renderLocal(*scene, settings);
+        const double measured = trueRelativeRmse(luminances(film, width, height), reference);
+        const double truth =
+            std::sqrt(std::max(0.0, measured * measured - referenceNoise * referenceNoise));
+        const auto twoRadii = estimateRelativeBiasTwoRadii(film, smallerFilm, region, passes);
+        const auto temporal = estimateRelativeBiasTemporal(film, earlier, region, passes, 0.5);
+        ASSERT_TRUE(twoRadii && temporal);
+        const double noise = status.estimate->relativeRmse;
+        const double withTwoRadii = withBias(*status.estimate, *twoRadii).relativeRmse;
+        const double withTemporal = withBias(*status.estimate, *temporal).relativeRmse;
+        noiseLogRatios.push_back(std::log(noise / truth));
+        twoRadiiLogRatios.push_back(std::log(withTwoRadii / truth));
+        temporalLogRatios.push_back(std::log(withTemporal / truth));
+        std::printf(
+            "seed %llu: truth %.4f; noise %.4f; bias two radii %.4f (total %.4f), "
+            "temporal %.4f (total %.4f)\n",
+            (unsigned long long)seed, truth, noise, *twoRadii, withTwoRadii, *temporal,
+            withTemporal);
+    }
+    const RatioTest noiseTest = testLogRatios(noiseLogRatios);
+    const RatioTest twoRadiiTest = testLogRatios(twoRadiiLogRatios);
+    const RatioTest temporalTest = testLogRatios(temporalLogRatios);
+    std::printf("noise only: %s\ntwo radii: %s\ntemporal: %s\n", noiseTest.message.c_str(),
+                twoRadiiTest.message.c_str(), temporalTest.message.c_str());
+    EXPECT_FALSE(noiseTest.unbiased)
+        << "the noise alone must miss the truth here: " << noiseTest.message;
+    EXPECT_LT(noiseTest.meanLogRatio, std::log(0.5)) << noiseTest.message;
+    EXPECT_TRUE(twoRadiiTest.unbiased) << twoRadiiTest.message;
+    EXPECT_TRUE(twoRadiiTest.withinAccuracy) << twoRadiiTest.message;
 }
 
 // The halves are as exact as the image: the same bytes at any thread count and tile size; and a

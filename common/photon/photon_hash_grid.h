@@ -8,7 +8,7 @@
 //
 // The grid keeps its own copy of each photon in entry order, so that a gather reads the photons
 // it visits from a few contiguous runs: looking them up by index in the map's array cost a cache
-// miss per photon, which dominated large gathers (bench/RESULTS.md, "The stage at the report's
+// miss per photon, which dominated large gathers (bench/RESULTS.md, "The stage at full
 // settings").
 #pragma once
 

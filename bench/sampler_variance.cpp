@@ -136,7 +136,8 @@ int main(int argc, char** argv) {
         return 2;
     }
     const SceneCase scenes[] = {
-        // Direct light only: a soft shadow under an area light (scenes/seed/sampler_stratified.xml's subject).
+        // Direct light only: a soft shadow under an area light
+        // (scenes/seed/sampler_stratified.xml's subject).
         {"shadow", "soft shadow (direct_mats)", "scenes/seed/sampler_independent.xml", Tile{}},
         {"cbox", "cbox (path_mis)", "scenes/cbox/cbox.xml", Tile{}},
         {"fog", "spotlight_fog (volume_path_mis)", "scenes/seed/spotlight_fog.xml", Tile{}},

@@ -79,7 +79,8 @@ class Coordinator {
     // Makes waiting AcquireWork calls return and closes every job's change signal (WatchJob
     // streams end), so the server can shut down quickly.
     void beginStop();
-    // Stops the background thread and checkpoints every running job (clean shutdown loses nothing).
+    // Stops the background thread and checkpoints every running job with unwritten merges (clean
+    // shutdown loses nothing).
     void stop();
     // The background work, once: expires leases that are past their deadline, and when due
     // (by the clock) removes what the keep time lets go (every minute) and checkpoints the jobs

@@ -172,7 +172,7 @@ TEST_F(CoordinatorJob, ReverseOrderDuplicatesAndRestartGiveTheLocalFilm) {
             ASSERT_TRUE(leases.back().has_work());
         }
         EXPECT_FALSE(coordinator.acquire(worker, std::chrono::steady_clock::now()).has_work());
-        // Deliver the second half in reverse order, one unit twice, then "crash".
+        // Deliver the second half in reverse order, one unit twice, then stop and restart.
         for (uint32_t i = total - 1; i >= total / 2; --i) {
             std::string compressed;
             const v1::ResultChunk header = render(leases[i], worker, compressed);

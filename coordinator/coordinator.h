@@ -57,8 +57,9 @@ struct CoordinatorOptions {
     uint32_t maxPasses = 1u << 20;
     int defaultTileSize = 64;
     uint32_t defaultPassesPerUnit = 1;
-    // How long an ended job (done, failed, cancelled) stays fetchable before its record, films
-    // and bundle are removed, together with blobs no remaining job uses; 0 keeps everything.
+    // How long an ended job (done, failed, cancelled) stays listed, a done job's image
+    // fetchable, before its record, films and bundle are removed, together with blobs no
+    // remaining job uses; 0 keeps everything.
     double keepFinishedSeconds = 7 * 24 * 3600.0;
     // Memory the running jobs' films and unit tables may take together; a job that would exceed
     // it is refused at submit. 0: half of the machine's physical memory.
@@ -200,7 +201,8 @@ class Coordinator {
     // Rebuilds one job from its stored row and checkpoint; throws Error on a damaged record.
     void resumeJob(Job& job, const JobRow& row);
     // Copies `source`, the film of job `jobId`, into `target` (its shape) one band of rows
-    // per lock hold; false when the job released that film meanwhile.
+    // per lock hold; false when the job released that film meanwhile, NotFound when it was
+    // deleted.
     bool copyFilmInBands(uint64_t jobId, const JobFilm* source, FilmBlock& target);
     void backgroundLoop();
     void expireLeases();

@@ -145,8 +145,9 @@ class Coordinator {
     // `header` is the first chunk of the stream, `compressedFilm` all data concatenated.
     v1::ResultDisposition report(const v1::ResultChunk& header, const std::string& compressedFilm);
     // Removes the jobs that ended more than keepFinishedSeconds before `wallNow` (seconds since
-    // the epoch) and the blobs that no remaining job references and nobody stored or asked for
-    // within that time. tick() calls it every minute; public for tests.
+    // the epoch), the blobs that no remaining job references and nobody stored or asked for
+    // within that time, and the workers without a lease that have not called within it. tick()
+    // calls it every minute; public for tests.
     void pruneFinishedJobs(double wallNow);
 
     // Coordinator memory a running job takes: its whole-image film plus per-unit bookkeeping.

@@ -43,6 +43,7 @@ Command addCancelCommand(CLI::App& app);
 Command addFetchCommand(CLI::App& app);
 Command addWorkersCommand(CLI::App& app);
 Command addClusterCommand(CLI::App& app);
+// Statistical test files (cli/test_command.cpp).
 Command addTestCommand(CLI::App& app);
 
 }  // namespace alphorn::cli

@@ -105,7 +105,8 @@ bool BlobStore::Upload::commit() {
     if (actual != m_claimed)
         fail("hash mismatch: the blob was sent as %s but its content hashes to %s", m_claimed,
              actual);
-    // The database records the blob as stored once this returns, so its bytes must be on disk.
+    // The blob counts as stored once this returns (a submission may use it), so its bytes must
+    // be on disk.
     struct stat info {};
     const bool synced = ::fsync(m_fd) == 0 && ::fstat(m_fd, &info) == 0;
     const int error = errno;

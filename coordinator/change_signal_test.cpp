@@ -13,7 +13,7 @@ namespace {
 using namespace std::chrono_literals;
 using SteadyClock = std::chrono::steady_clock;
 
-// Far enough that a waiter returning before it was woken, not by its deadline.
+// Far enough that a waiter that returns was woken, not stopped by its deadline.
 constexpr auto kLongWait = 10s;
 
 TEST(ChangeSignal, AWaiterTimesOutWithTheVersionItSaw) {

@@ -57,8 +57,9 @@ struct CoordinatorOptions {
     uint32_t maxPasses = 1u << 20;
     int defaultTileSize = 64;
     uint32_t defaultPassesPerUnit = 1;
-    // How long an ended job (done, failed, cancelled) stays fetchable before its record, films
-    // and bundle are removed, together with blobs no remaining job uses; 0 keeps everything.
+    // How long an ended job (done, failed, cancelled) stays listed, a done job's image
+    // fetchable, before its record, films and bundle are removed, together with blobs no
+    // remaining job uses; 0 keeps everything.
     double keepFinishedSeconds = 7 * 24 * 3600.0;
     // Memory the running jobs' films and unit tables may take together; a job that would exceed
     // it is refused at submit. 0: half of the machine's physical memory.
@@ -79,7 +80,8 @@ class Coordinator {
     // Makes waiting AcquireWork calls return and closes every job's change signal (WatchJob
     // streams end), so the server can shut down quickly.
     void beginStop();
-    // Stops the background thread and checkpoints every running job (clean shutdown loses nothing).
+    // Stops the background thread and checkpoints every running job with unwritten merges (clean
+    // shutdown loses nothing).
     void stop();
     // The background work, once: expires leases that are past their deadline, and when due
     // (by the clock) removes what the keep time lets go (every minute) and checkpoints the jobs
@@ -143,8 +145,9 @@ class Coordinator {
     // `header` is the first chunk of the stream, `compressedFilm` all data concatenated.
     v1::ResultDisposition report(const v1::ResultChunk& header, const std::string& compressedFilm);
     // Removes the jobs that ended more than keepFinishedSeconds before `wallNow` (seconds since
-    // the epoch) and the blobs that no remaining job references and nobody stored or asked for
-    // within that time. tick() calls it every minute; public for tests.
+    // the epoch), the blobs that no remaining job references and nobody stored or asked for
+    // within that time, and the workers without a lease that have not called within it. tick()
+    // calls it every minute; public for tests.
     void pruneFinishedJobs(double wallNow);
 
     // Coordinator memory a running job takes: its whole-image film plus per-unit bookkeeping.
@@ -199,7 +202,8 @@ class Coordinator {
     // Rebuilds one job from its stored row and checkpoint; throws Error on a damaged record.
     void resumeJob(Job& job, const JobRow& row);
     // Copies `source`, the film of job `jobId`, into `target` (its shape) one band of rows
-    // per lock hold; false when the job released that film meanwhile.
+    // per lock hold; false when the job released that film meanwhile, NotFound when it was
+    // deleted.
     bool copyFilmInBands(uint64_t jobId, const JobFilm* source, FilmBlock& target);
     void backgroundLoop();
     void expireLeases();

@@ -172,7 +172,7 @@ TEST_F(CoordinatorJob, ReverseOrderDuplicatesAndRestartGiveTheLocalFilm) {
             ASSERT_TRUE(leases.back().has_work());
         }
         EXPECT_FALSE(coordinator.acquire(worker, std::chrono::steady_clock::now()).has_work());
-        // Deliver the second half in reverse order, one unit twice, then "crash".
+        // Deliver the second half in reverse order, one unit twice, then stop and restart.
         for (uint32_t i = total - 1; i >= total / 2; --i) {
             std::string compressed;
             const v1::ResultChunk header = render(leases[i], worker, compressed);
@@ -482,7 +482,9 @@ TEST_F(CoordinatorJob, CountsThatWouldOverflowAreClampedOrRefused) {
     renderAllUnits(coordinator, coordinator.registerWorker(v1::RegisterRequest()));
     EXPECT_EQ(coordinator.listJobs(status.job_id()).at(0).state(), v1::JOB_STATE_DONE);
     EXPECT_EQ(coordinator.snapshot(status.job_id(), false).film.serialize(), localFilm());
-    // 1200 one-pixel tiles x 2^20 passes: more units than a 32-bit index names.
+    // 1200 one-pixel tiles x 2^20 passes: about 2^30 units, which a 32-bit index still names;
+    // refused for the coordinator memory they would take (the default budget, half of this
+    // machine's memory).
     request.mutable_settings()->set_tile_size(1);
     request.mutable_settings()->set_passes(1u << 20);
     request.mutable_settings()->set_passes_per_unit(1);
@@ -716,7 +718,7 @@ TEST_F(CoordinatorJob, AFinishedJobWhoseCheckpointIsLostIsRenderedAgain) {
 
 // A crash inside submit() after the job's record but before its directory: the restarted
 // coordinator makes the directory, so the job's checkpoints can be written and it finishes
-// (before, its final checkpoint failed for ever and it stayed running).
+// (without that, its final checkpoint would fail for ever and it would stay running).
 TEST_F(CoordinatorJob, AJobRecordedWithoutItsDirectoryRunsToTheEnd) {
     uint64_t jobId = 0;
     {

@@ -23,7 +23,7 @@ constexpr const char* kSessionCookie = "alphorn_session";
 // The header the dashboard's own script sends with every action (see dashboard.h).
 constexpr const char* kActionHeader = "X-Alphorn-Dashboard";
 // A job's history keeps at most this many estimates (decisions are at 4, 8, 16, ... passes
-// and the cap, so a job of 2^20 passes has 20).
+// and the cap, so a job of 2^20 passes has 19).
 constexpr size_t kMaxHistoryPoints = 64;
 
 double monotonicSeconds() {

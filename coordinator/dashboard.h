@@ -50,7 +50,7 @@ class Dashboard {
     };
     // The estimates seen for the job by this process, by passes.
     std::vector<EstimatePoint> history(uint64_t jobId) const;
-    // Notes the estimates of these statuses (the sampling thread and every API answer call it).
+    // Notes the estimates of these statuses (the sampling thread and the jobs API answers call it).
     void record(const std::vector<v1::JobStatus>& statuses);
 
   private:

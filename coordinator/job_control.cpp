@@ -39,8 +39,9 @@ Coordinator::Job& Coordinator::runningJobLocked(uint64_t jobId, const char* acti
 // Pause and priority write the store without m_mutex: a store write waits for the disk
 // (milliseconds), and every lease and merge would wait with it. m_controlMutex keeps the controls
 // in the order they were stored and keeps deleteJob() and pruneFinishedJobs() from removing the
-// job meanwhile. As before, the change is stored before it is applied and acknowledged; a job
-// that ended in between gets it too (stored and in memory alike: a retry runs it so).
+// job meanwhile. The change is stored before it is applied and acknowledged; a job that ended
+// in between gets it too, stored and in memory alike (a retry keeps a new priority and clears a
+// pause).
 v1::JobStatus Coordinator::setPaused(uint64_t jobId, bool paused) {
     std::lock_guard control(m_controlMutex);
     {

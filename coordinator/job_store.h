@@ -1,6 +1,7 @@
 // The coordinator's durable records in SQLite, behind typed rows: jobs (description, shape,
-// state), failed unit attempts, registered workers, and the lease epoch and key. The schema lives
-// here and nowhere else; film sums are not here but in each job's checkpoint (job_film.h).
+// state), failed unit attempts, each job's event log, registered workers, and the lease epoch
+// and key. The schema lives here and nowhere else; film sums are not here but in each job's
+// checkpoint (job_film.h).
 // Every method throws StorageError when the database cannot be written or read.
 #pragma once
 

@@ -77,7 +77,7 @@ TEST_F(LeaseSchedulerTest, APoisonUnitEndsItsJobAndDropsItsLeases) {
     ASSERT_TRUE(first.has_value());
     EXPECT_FALSE(first->poisoned);
     EXPECT_TRUE(scheduler.running(1));
-    // Hand the other units back until the failed one comes again.
+    // Lease the other units until the failed one comes again.
     for (;;) {
         lease = *scheduler.lease(kWorkerA);
         if (lease.unitIndex == first->unitIndex) break;

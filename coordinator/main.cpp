@@ -99,7 +99,8 @@ int main(int argc, char** argv) {
     // A file size limit (ulimit -f) must fail the write that exceeds it, like a full disk, not
     // kill the coordinator.
     std::signal(SIGXFSZ, SIG_IGN);
-    // Signals are taken by a dedicated thread (sigwait), so every other thread blocks them.
+    // Signals are taken by sigwait() in this thread below, so every thread blocks them (those
+    // started later inherit the mask).
     sigset_t signals;
     sigemptyset(&signals);
     sigaddset(&signals, SIGTERM);

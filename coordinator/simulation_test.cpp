@@ -119,8 +119,7 @@ class Simulation {
         try {
             fs::remove_all(m_root);
             fs::create_directories(m_root);
-            // Retention off (as before it was simulated), or a keep time short enough to act
-            // within a schedule.
+            // Retention off, or a keep time short enough to act within a schedule.
             const double keeps[] = {0, 20, 45};
             m_keep = keeps[m_random.below(3)];
             note(absl::StrFormat("retention keeps ended jobs %.0f s", m_keep));
@@ -940,7 +939,7 @@ class Simulation {
     int m_generation = 0;
     int m_crashCountdown = -1;  // durable writes before a crash inside a step; -1: none due
     bool m_crashTaken = false;
-    bool m_diskFull = false;  // checkpoint, job-end and attempt writes fail
+    bool m_diskFull = false;  // every durable write fails (DurableWriteHooks::before)
     double m_keep = 0;        // retention's keep time for ended jobs; 0 keeps everything
     std::map<uint64_t, SimJob> m_jobs;
     std::vector<SimWorker> m_workers;

@@ -19,7 +19,7 @@ class BlobCache {
     BlobCache(std::string directory, uint64_t maxBytes);
 
     // Path of the blob, fetching it with `fetch(sha256, temporaryPath)` when absent. The fetched
-    // file's hash is verified before it enters the cache. Blobs in `pinned` are never evicted.
+    // file's hash is verified before it enters the cache.
     std::string get(const std::string& sha256,
                     const std::function<void(const std::string&, const std::string&)>& fetch);
     // Evicts least recently used blobs until the cache fits its budget, sparing `pinned`.

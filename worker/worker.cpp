@@ -239,10 +239,10 @@ void Worker::heartbeatLoop() {
 }
 
 Worker::JobContext& Worker::prepareJob(const v1::JobDescription& job) {
-    // The cached scene is reused only for the very same job: same id, bundle (content hashes)
-    // and settings. An id alone is not enough: ids of different jobs have been seen equal
-    // (descriptions stored without their id), and a worker must never render a unit with
-    // another job's scene.
+    // The cached scene is reused only for the very same job: same id, bundle (content hashes),
+    // seed and integrator override. An id alone is not enough: ids of different jobs have been
+    // seen equal (descriptions stored without their id), and a worker must never render a unit
+    // with another job's scene.
     const std::string identity = jobIdentity(job);
     if (m_job && m_job->identity == identity) return *m_job;
     // One job's scene at a time: the previous one is released, so memory stays flat.

@@ -472,6 +472,9 @@ TEST_F(CoordinatorJob, EveryPersistedFieldRoundTrips) {
 }
 
 TEST_F(CoordinatorJob, CountsThatWouldOverflowAreClampedOrRefused) {
+    // A budget of 1 GiB, not the default half of the machine's memory: the job of 2^30 units
+    // below must be refused on any machine.
+    m_options.maxMemoryBytes = uint64_t(1) << 30;
     Coordinator coordinator(m_options);
     v1::SubmitJobRequest request = upload(coordinator);
     // Passes per unit beyond the passes: one chunk, not zero units.
@@ -483,8 +486,7 @@ TEST_F(CoordinatorJob, CountsThatWouldOverflowAreClampedOrRefused) {
     EXPECT_EQ(coordinator.listJobs(status.job_id()).at(0).state(), v1::JOB_STATE_DONE);
     EXPECT_EQ(coordinator.snapshot(status.job_id(), false).film.serialize(), localFilm());
     // 1200 one-pixel tiles x 2^20 passes: about 2^30 units, which a 32-bit index still names;
-    // refused for the coordinator memory they would take (the default budget, half of this
-    // machine's memory).
+    // refused for the coordinator memory they would take (about 100 GB, beyond the budget).
     request.mutable_settings()->set_tile_size(1);
     request.mutable_settings()->set_passes(1u << 20);
     request.mutable_settings()->set_passes_per_unit(1);

@@ -52,8 +52,9 @@ int main(int argc, char** argv) {
     app.add_option("--max-passes", options.maxPasses, "Most passes a job may ask for");
     double keepFinishedHours = options.keepFinishedSeconds / 3600;
     app.add_option("--keep-finished-hours", keepFinishedHours,
-                   "Hours an ended job stays fetchable before its record, images and bundle are "
-                   "removed (with blobs no remaining job uses); 0 keeps them forever")
+                   "Hours an ended job stays listed (a done job's image fetchable) before its "
+                   "record, images and bundle are removed (with blobs no remaining job uses); 0 "
+                   "keeps them forever")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 1e6));
     app.add_option("--max-memory", options.maxMemoryBytes,

@@ -73,11 +73,12 @@ std::vector<prometheus::MetricFamily> CoordinatorStateMetrics::Collect() const {
     addGauge(leasedUnits, double(leased));
     families.push_back(std::move(leasedUnits));
 
-    auto workers = family("alphorn_workers",
-                          "Workers by state: alive (called within two heartbeat intervals), "
-                          "silent (not since), dead (not for three lease periods; forgotten "
-                          "after --keep-finished-hours) or left (exited after a drain)",
-                          prometheus::MetricType::Gauge);
+    auto workers =
+        family("alphorn_workers",
+               "Workers by state: alive (called within two heartbeat intervals, at least 3 s), "
+               "silent (not since), dead (not for three lease periods; forgotten "
+               "after --keep-finished-hours) or left (exited after a drain)",
+               prometheus::MetricType::Gauge);
     auto draining = family("alphorn_workers_draining",
                            "Workers taking no new unit: drained by a client, or stopping",
                            prometheus::MetricType::Gauge);

@@ -61,6 +61,4 @@ inline Vector3f sphericalDirection(float theta, float phi) {
     return Vector3f(sinTheta * std::cos(phi), sinTheta * std::sin(phi), cosTheta);
 }
 
-// Reflect / refract helpers in a local frame with normal +z are in frame.h.
-
 }  // namespace alphorn

@@ -39,8 +39,9 @@ class Emitter : public Object {
 
     // Total emitted flux, used to choose lights in proportion to power for photons.
     virtual Color3f power() const = 0;
-    // Samples an emitted photon: origin and direction in `ray`; returns its flux
-    // (power / pdf of the sampled ray), so that N photons each divided by N sum to power().
+    // Samples an emitted photon: origin and direction in `ray`; returns its flux (the emission
+    // along the ray, radiance times cosine or intensity, over the pdf of the sampled ray), so that
+    // N photons each divided by N sum to power() in expectation.
     virtual Color3f samplePhoton(Ray3f& ray, const Point2f& positionSample,
                                  const Point2f& directionSample) const = 0;
 

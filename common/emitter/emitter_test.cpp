@@ -66,7 +66,7 @@ TEST(AreaLight, SampleAndPdfAgreeAndIntegrateTheSolidAngle) {
         ASSERT_NEAR(value.r(), light.eval(rec).r() / rec.pdf, 1e-5f * value.r());
         // The shadow ray ends just short of the light.
         ASSERT_NEAR(rec.shadowRay.maxt, (rec.p - ref).norm() - Epsilon, 1e-5f);
-        // Radiance / pdf with radiance 1 in the blue-ish channel ratio: E[L/pdf] = L * Omega.
+        // Radiance / pdf in the green channel, whose radiance is 1: E[L/pdf] = L * Omega.
         estimate.add(value.g());
     }
     const double omega = rectangleSolidAngle(-1, 1, -1, 1, 0.3, 1.5, -0.2);

@@ -353,8 +353,9 @@ TEST(Medium, DenseMediaStayFiniteAndBounded) {
             ASSERT_TRUE(t.allFinite());
             ASSERT_LT(t.maxCoeff(), 1e-30f);
         }
-        // Homogeneous: 2 numbers per sample; heterogeneous: majorant == sigma_t, so the first
-        // tentative collision is real (2 numbers) and ratio tracking stops at its first step.
+        // Homogeneous: 1 number per sample (grey: no hero channel; closed-form transmittance).
+        // Heterogeneous: 4 (the hero channel; majorant == sigma_t, so the first tentative
+        // collision is real, 2 numbers; ratio tracking stops at its first step, 1 number).
         EXPECT_LT(sampler.draws, 10000u * 5) << medium->toString();
     }
 }

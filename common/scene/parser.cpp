@@ -161,7 +161,7 @@ class Parser {
                 failAt(node, "<%s> does not take the attribute \"%s\"", node.name(), attr.name());
         }
         for (const char* name : allowed) {
-            // "name" on objects and "type" on <scene> are optional; everything else is required.
+            // "name" on objects is optional; everything else is required.
             bool optional = std::strcmp(name, "name") == 0 && kObjectTags.count(node.name());
             if (!optional && !node.attribute(name))
                 failAt(node, "<%s> is missing the attribute \"%s\"", node.name(), name);
@@ -427,7 +427,8 @@ class Parser {
                     break;
             }
         } catch (const Error& e) {
-            // Re-anchor errors from the property list (e.g. duplicates) at this element.
+            // Re-anchor errors from the property list at this element (duplicates never get
+            // here: failIfDuplicate reports them first).
             std::string message = e.what();
             if (message.rfind(m_name, 0) == 0) throw;
             failAt(node, "%s", message);

@@ -72,8 +72,8 @@ class BitmapTexture : public Texture {
 
     Color3f eval(const Point2f& uvIn, const Point3f&) const override {
         const Point2f uv = m_mapping.map(uvIn);
-        // The clamp keeps absurd uvs (and NaN, which std::clamp passes through) out of the
-        // integer conversion below.
+        // The clamp keeps absurd uvs out of the integer conversion below; NaN passes through it
+        // and is caught next.
         const float x = clamp(uv.x() * m_image.width - 0.5f, -1e9f, 1e9f);
         const float y = clamp((1.0f - uv.y()) * m_image.height - 0.5f, -1e9f, 1e9f);
         if (std::isnan(x) || std::isnan(y)) return m_lower;

@@ -6,7 +6,8 @@
 //
 // Media evaluate densities with a position only and need a majorant: is3D() says a texture
 // ignores uv, and lowerBound()/upperBound() are true per-channel bounds over the whole domain
-// (every texture computes real ones, so a majorant is never infinite or guessed).
+// (every texture computes real ones, so a majorant is never guessed; bounds that overflow to
+// infinity are refused by the medium).
 #pragma once
 
 #include "common/core/color.h"

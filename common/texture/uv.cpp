@@ -1,6 +1,6 @@
 // <texture type="uv">: shows the (mapped) surface coordinates as colour (frac(u'), frac(v'), 0),
 // for checking a mesh's parameterisation and a projector's orientation. The fractional part
-// keeps the value (and so the bounds) in [0, 1) whatever the mesh's uv range.
+// keeps the value (and so the bounds) in [0, 1] whatever the mesh's uv range.
 #include "common/texture/mapping.h"
 #include "common/texture/texture.h"
 

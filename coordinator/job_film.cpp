@@ -300,6 +300,7 @@ void describeEstimate(const JobFilm& film, v1::JobStatus& status) {
     if (!estimate) return;
     status.set_error_estimate(estimate->relativeRmse);
     status.set_error_estimate_passes(estimate->passes);
+    if (estimate->relativeBias) status.set_error_bias(*estimate->relativeBias);
     if (film.targetError())
         status.set_projected_passes(projectedPasses(*estimate, *film.targetError()));
     if (film.adaptive()) {

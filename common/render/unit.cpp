@@ -38,7 +38,7 @@ SmallerRadius filmSmallerRadius(const Scene& scene) {
 }
 
 FilmBlock makeUnitBlock(const Scene& scene, const Tile& tile) {
-    return unitBlock(tile, filterBorder(scene));
+    return unitBlock(tile, filterBorder(scene), filmSmallerRadius(scene));
 }
 
 TileGrid::TileGrid(int width, int height, int tileSize, int border, SmallerRadius smallerRadius)

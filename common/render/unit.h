@@ -41,8 +41,7 @@ FilmBlock unitBlock(const Tile& tile, int border,
 // Whether the scene's films keep the smaller radius's image: when its integrator makes one
 // (Integrator::estimatesBiasWithTwoRadii).
 SmallerRadius filmSmallerRadius(const Scene& scene);
-// The film block a farm unit writes: unitBlock(tile, filterBorder(scene)), without the smaller
-// radius's image (the farm's job films do not keep it).
+// The film block a unit writes: unitBlock(tile, filterBorder(scene), filmSmallerRadius(scene)).
 FilmBlock makeUnitBlock(const Scene& scene, const Tile& tile);
 
 // The tiles an image is rendered in, the same for a local render (renderLocal) and a farm job
@@ -61,6 +60,7 @@ class TileGrid {
     int width() const { return m_width; }
     int height() const { return m_height; }
     int border() const { return m_border; }
+    SmallerRadius smallerRadius() const { return m_smallerRadius; }
     const std::vector<Tile>& tiles() const { return m_tiles; }
     // The film block a unit over `tile` writes: unitBlock(tile, border()).
     FilmBlock block(const Tile& tile) const { return unitBlock(tile, m_border, m_smallerRadius); }

@@ -149,10 +149,11 @@ Image resolveImage(const FilmBlock& film, int width, int height) {
 
 namespace {
 
-// splatFiltered into the sums sumsAt(x, y) of the block.
-template <typename SumsAt>
-void splatInto(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
-               const Color3f& value, SampleWeight weight, SumsAt&& sumsAt) {
+// Calls addTap(x, y, w) for every pixel of the block within the filter's reach with a nonzero
+// weight w.
+template <typename AddTap>
+void forEachTap(const FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
+                AddTap&& addTap) {
     const float radius = filter.radius();
     const float px = position.x() - 0.5f, py = position.y() - 0.5f;
     const int xBegin = static_cast<int>(std::ceil(px - radius));
@@ -169,25 +170,38 @@ void splatInto(FilmBlock& block, const ReconstructionFilter& filter, const Point
             const int x = xBegin + i;
             const float w = wx[i] * wy;
             if (w == 0.0f || !block.contains(x, y)) continue;
-            PixelSum& sum = sumsAt(x, y);
-            for (int c = 0; c < 3; ++c) sum.rgb[c] += toFixedPoint(double(w) * double(value[c]));
-            if (weight == SampleWeight::Counted) sum.weight += toFixedPoint(w);
+            addTap(x, y, w);
         }
     }
+}
+
+void addTap(PixelSum& sum, float w, const Color3f& value, SampleWeight weight) {
+    for (int c = 0; c < 3; ++c) sum.rgb[c] += toFixedPoint(double(w) * double(value[c]));
+    if (weight == SampleWeight::Counted) sum.weight += toFixedPoint(w);
 }
 
 }  // namespace
 
 void splatFiltered(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
                    const Color3f& value, SampleWeight weight) {
-    splatInto(block, filter, position, value, weight,
-              [&](int x, int y) -> PixelSum& { return block.at(x, y); });
+    forEachTap(block, filter, position,
+               [&](int x, int y, float w) { addTap(block.at(x, y), w, value, weight); });
 }
 
 void splatFilteredSmallerRadius(FilmBlock& block, const ReconstructionFilter& filter,
                                 const Point2f& position, const Color3f& value) {
-    splatInto(block, filter, position, value, SampleWeight::Counted,
-              [&](int x, int y) -> PixelSum& { return block.smallerRadiusAt(x, y); });
+    forEachTap(block, filter, position, [&](int x, int y, float w) {
+        addTap(block.smallerRadiusAt(x, y), w, value, SampleWeight::Counted);
+    });
+}
+
+void splatFilteredTwoRadii(FilmBlock& block, const ReconstructionFilter& filter,
+                           const Point2f& position, const Color3f& value,
+                           const Color3f& smallerRadiusValue) {
+    forEachTap(block, filter, position, [&](int x, int y, float w) {
+        addTap(block.at(x, y), w, value, SampleWeight::Counted);
+        addTap(block.smallerRadiusAt(x, y), w, smallerRadiusValue, SampleWeight::Counted);
+    });
 }
 
 }  // namespace alphorn

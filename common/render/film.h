@@ -158,6 +158,11 @@ void splatFiltered(FilmBlock& block, const ReconstructionFilter& filter, const P
 // The same into the smaller radius's sums (keepsSmallerRadius() must hold).
 void splatFilteredSmallerRadius(FilmBlock& block, const ReconstructionFilter& filter,
                                 const Point2f& position, const Color3f& value);
+// A camera sample into both: splatFiltered(value, Counted) and splatFilteredSmallerRadius(
+// smallerRadiusValue), the filter evaluated once.
+void splatFilteredTwoRadii(FilmBlock& block, const ReconstructionFilter& filter,
+                           const Point2f& position, const Color3f& value,
+                           const Color3f& smallerRadiusValue);
 
 // Resolves sums into an image: each pixel is sum(w L) / sum(w), computed in double from the
 // exact integers and rounded once to float. Pixels with no weight are black.

@@ -93,9 +93,16 @@ void splat(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& 
 // counted: invalidSamples counts the image's samples.
 void splatTwoRadii(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
                    const TwoRadiiRadiance& value) {
-    splat(block, filter, position, value.atPassRadius);
-    if (isValidSample(value.atSmallerRadius))
-        splatFilteredSmallerRadius(block, filter, position, value.atSmallerRadius);
+    const bool smallerValid = isValidSample(value.atSmallerRadius);
+    if (!isValidSample(value.atPassRadius)) {
+        ++block.invalidSamples;
+        if (smallerValid)
+            splatFilteredSmallerRadius(block, filter, position, value.atSmallerRadius);
+    } else if (smallerValid) {
+        splatFilteredTwoRadii(block, filter, position, value.atPassRadius, value.atSmallerRadius);
+    } else {
+        splatFiltered(block, filter, position, value.atPassRadius, SampleWeight::Counted);
+    }
 }
 
 }  // namespace

@@ -38,6 +38,7 @@ std::string statusErrorText(const v1::JobStatus& status) {
         estimate = ErrorEstimate();
         estimate->relativeRmse = status.error_estimate();
         estimate->passes = status.error_estimate_passes();
+        if (status.has_error_bias()) estimate->relativeBias = status.error_bias();
     }
     const v1::JobSettings& settings = status.settings();
     // The coordinator's projection uses the slope it measured over the decision points.

@@ -28,6 +28,9 @@ std::string errorText(const std::optional<ErrorEstimate>& estimate,
                       std::optional<double> targetError, std::optional<double> projected) {
     std::string text = "err ";
     text += estimate ? absl::StrFormat("%.3g%%", 100.0 * estimate->relativeRmse) : "-";
+    // A progressive photon mapper's estimate includes the radius's bias: shown as its part.
+    if (estimate && estimate->relativeBias)
+        text += absl::StrFormat(" (bias %.3g%%)", 100.0 * *estimate->relativeBias);
     if (targetError) {
         text += absl::StrFormat(" -> %.3g%%", 100.0 * *targetError);
         if (estimate)
@@ -50,8 +53,12 @@ std::string finalEstimateText(const RenderStatus& status, std::optional<double> 
     if (!status.estimate)
         return "error estimate: none (it needs 4 passes, or 2 passes of a film with light)";
     std::string text = absl::StrFormat(
-        "error estimate: relative RMSE %.4g at %u passes (from the odd and even passes)",
+        "error estimate: relative RMSE %.4g at %u passes (from the odd and even passes",
         status.estimate->relativeRmse, status.estimate->passes);
+    text += status.estimate->relativeBias
+                ? absl::StrFormat("; of it the radius's bias %.4g, from two radii)",
+                                  *status.estimate->relativeBias)
+                : ")";
     if (targetError) {
         if (status.targetReached)
             text += absl::StrFormat("; target %.4g reached", *targetError);

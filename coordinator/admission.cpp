@@ -122,6 +122,7 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
     if (settings.name().empty()) settings.set_name(fs::path(bundle.scenePath).stem().string());
     const std::optional<RadiusSchedule> radiusSchedule = scene->integrator()->radiusSchedule();
     admitted.filterBorder = filterBorder(*scene);
+    admitted.smallerRadius = filmSmallerRadius(*scene);
     scene.reset();
     auto refuse = [&](Kind kind, const std::string& message) {
         fs::remove_all(admitted.stagingDirectory);
@@ -137,9 +138,9 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
     if (settings.tile_size() > 16384)
         refuse(Kind::InvalidArgument, "tile size must be at most 16384");
     try {
-        admitted.grid = farm::JobGrid(
-            TileGrid(size.x(), size.y(), int(settings.tile_size()), admitted.filterBorder),
-            settings.passes(), settings.passes_per_unit());
+        admitted.grid = farm::JobGrid(TileGrid(size.x(), size.y(), int(settings.tile_size()),
+                                               admitted.filterBorder, admitted.smallerRadius),
+                                      settings.passes(), settings.passes_per_unit());
     } catch (const Error& e) {
         refuse(Kind::InvalidArgument, e.what());
     }

@@ -26,6 +26,9 @@ struct AdmittedJob {
     v1::JobDescription description;  // bundle, settings with defaults, radius schedule; no id
     farm::JobGrid grid;
     int filterBorder = 0;
+    // Whether the job's films keep the smaller radius's image (a progressive photon mapper's):
+    // its grid's blocks do.
+    SmallerRadius smallerRadius = SmallerRadius::None;
     // The materialized bundle (a directory holding bundle/), to become the job's directory.
     std::string stagingDirectory;
 };

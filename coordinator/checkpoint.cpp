@@ -13,12 +13,14 @@ namespace alphorn::coordinator {
 namespace {
 
 // Layout: magic (its last byte is the version), u32 width, u32 height, u32 units, u64 invalid
-// samples, [version 2: one byte, 1 when the film keeps its odd passes' half], one byte per
-// unit, u64 compressed film size, compressed film, then the SHA-256 (hex) of everything before
-// it. Version 1 (before the pass halves) is read as a film without halves: the job goes on, and
-// its image has no error estimate.
+// samples, [version 2 and later: one byte, 1 when the film keeps its odd passes' half],
+// [version 3: one byte, 1 when it keeps the smaller radius's image], one byte per unit, u64
+// compressed film size, compressed film, then the SHA-256 (hex) of everything before it.
+// Version 1 (before the pass halves) is read as a film without halves: the job goes on, and its
+// image has no error estimate. Version 2 (before the smaller radius) is read as a film without
+// the smaller radius's image, as jobs of that time were.
 constexpr char kMagic[7] = {'A', 'L', 'P', 'H', 'C', 'K', 'P'};
-constexpr char kVersionWithoutHalves = '1', kVersion = '2';
+constexpr char kVersionWithoutHalves = '1', kVersionWithoutSmallerRadius = '2', kVersion = '3';
 
 template <typename T>
 void put(std::string& out, T value) {
@@ -46,6 +48,7 @@ void writeCheckpoint(const std::string& path, const FilmBlock& film,
     put<uint32_t>(out, static_cast<uint32_t>(merged.size()));
     put<uint64_t>(out, film.invalidSamples);
     put<uint8_t>(out, film.keepsHalves() ? 1 : 0);
+    put<uint8_t>(out, film.keepsSmallerRadius() ? 1 : 0);
     for (bool m : merged) out.push_back(m ? 1 : 0);
     const std::string compressed = farm::compressFilm(film);
     put<uint64_t>(out, compressed.size());
@@ -60,8 +63,9 @@ Checkpoint readCheckpoint(const std::string& path, int width, int height, uint32
     if (in.size() < sizeof kMagic + 1 + 64 || std::memcmp(in.data(), kMagic, sizeof kMagic) != 0)
         fail("%s: not an Alphorn checkpoint", path);
     const char version = in[sizeof kMagic];
-    if (version != kVersion && version != kVersionWithoutHalves)
-        fail("%s: checkpoint version %c is not one this Alphorn reads (1 or 2)", path, version);
+    if (version != kVersion && version != kVersionWithoutSmallerRadius &&
+        version != kVersionWithoutHalves)
+        fail("%s: checkpoint version %c is not one this Alphorn reads (1, 2 or 3)", path, version);
     const std::string body = in.substr(0, in.size() - 64);
     if (farm::sha256Hex(body) != in.substr(in.size() - 64))
         fail("%s: checkpoint checksum mismatch", path);
@@ -74,17 +78,23 @@ Checkpoint readCheckpoint(const std::string& path, int width, int height, uint32
     Checkpoint checkpoint;
     const uint64_t invalid = take<uint64_t>(body, offset);
     PassHalves halves = PassHalves::None;
-    if (version == kVersion) {
+    if (version != kVersionWithoutHalves) {
         const uint8_t kept = take<uint8_t>(body, offset);
         if (kept > 1) fail("%s: checkpoint has an invalid pass-halves flag %u", path, kept);
         halves = kept ? PassHalves::Kept : PassHalves::None;
+    }
+    SmallerRadius smallerRadius = SmallerRadius::None;
+    if (version == kVersion) {
+        const uint8_t kept = take<uint8_t>(body, offset);
+        if (kept > 1) fail("%s: checkpoint has an invalid smaller-radius flag %u", path, kept);
+        smallerRadius = kept ? SmallerRadius::Kept : SmallerRadius::None;
     }
     if (offset + units > body.size()) fail("%s: checkpoint is truncated", path);
     for (uint32_t i = 0; i < units; ++i) checkpoint.merged.push_back(body[offset + i] != 0);
     offset += units;
     const uint64_t compressedSize = take<uint64_t>(body, offset);
     if (offset + compressedSize != body.size()) fail("%s: checkpoint is truncated", path);
-    checkpoint.film = FilmBlock(0, 0, width, height, halves);
+    checkpoint.film = FilmBlock(0, 0, width, height, halves, smallerRadius);
     farm::decompressFilm(body.substr(offset), checkpoint.film);
     checkpoint.film.invalidSamples = invalid;
     return checkpoint;

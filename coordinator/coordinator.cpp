@@ -64,8 +64,9 @@ std::string Coordinator::mebibytes(uint64_t bytes) {
     return absl::StrFormat("%.0f MiB", double(bytes) / (1 << 20));
 }
 
-uint64_t Coordinator::jobMemoryBytes(int width, int height, uint64_t unitCount) {
-    return JobFilm::memoryBytes(width, height, unitCount) +
+uint64_t Coordinator::jobMemoryBytes(int width, int height, uint64_t unitCount,
+                                     SmallerRadius smallerRadius) {
+    return JobFilm::memoryBytes(width, height, unitCount, smallerRadius) +
            unitCount * LeaseScheduler::kBytesPerUnit;
 }
 
@@ -191,7 +192,8 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
         fs::remove_all(staging);
         throw FarmError(kind, message);
     };
-    const uint64_t memory = jobMemoryBytes(grid.width(), grid.height(), grid.unitCount());
+    const uint64_t memory =
+        jobMemoryBytes(grid.width(), grid.height(), grid.unitCount(), grid.tiles().smallerRadius());
     {
         std::lock_guard lock(m_mutex);
         if (m_memoryInUse + memory > m_options.maxMemoryBytes)
@@ -215,8 +217,9 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     job->createdAt = m_clock->wallSeconds();
     try {
         if (m_durableWriteHooks.before) m_durableWriteHooks.before();
-        job->id = m_store.addJob(job->description, grid.width(), grid.height(),
-                                 admitted.filterBorder, job->createdAt);
+        job->id =
+            m_store.addJob(job->description, grid.width(), grid.height(), admitted.filterBorder,
+                           job->createdAt, admitted.smallerRadius == SmallerRadius::Kept);
         if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     } catch (const Error& e) {
         release();
@@ -655,6 +658,7 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
     const uint64_t leaseId = header.lease_id();
     RenderUnit unit;
     int border = 0;
+    SmallerRadius smallerRadius = SmallerRadius::None;
     {
         std::lock_guard lock(m_mutex);
         if (!m_workers->touch(header.worker_id()))
@@ -696,10 +700,11 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
         }
         unit = job.grid.unit(unitIndex);
         border = job.filterBorder;
+        smallerRadius = job.grid.tiles().smallerRadius();
     }
 
     // Check and decompress outside the lock: this is the expensive part.
-    FilmBlock block = unitBlock(unit.tile, border);
+    FilmBlock block = unitBlock(unit.tile, border, smallerRadius);
     if (header.block_x0() != block.x0() || header.block_y0() != block.y0() ||
         header.block_width() != block.width() || header.block_height() != block.height())
         throw FarmError(

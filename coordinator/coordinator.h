@@ -151,7 +151,8 @@ class Coordinator {
     void pruneFinishedJobs(double wallNow);
 
     // Coordinator memory a running job takes: its whole-image film plus per-unit bookkeeping.
-    static uint64_t jobMemoryBytes(int width, int height, uint64_t unitCount);
+    static uint64_t jobMemoryBytes(int width, int height, uint64_t unitCount,
+                                   SmallerRadius smallerRadius = SmallerRadius::None);
 
     // Runs `look` on the scheduler under the lock: for tests and the simulation, which check
     // the lease tables after each step.

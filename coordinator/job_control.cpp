@@ -117,7 +117,8 @@ v1::JobStatus Coordinator::retry(uint64_t jobId) {
                             absl::StrFormat("cannot retry job %u: its record could not be "
                                             "resumed (%s); submit the scene again",
                                             jobId, job->error));
-        memory = jobMemoryBytes(job->grid.width(), job->grid.height(), job->grid.unitCount());
+        memory = jobMemoryBytes(job->grid.width(), job->grid.height(), job->grid.unitCount(),
+                                job->grid.tiles().smallerRadius());
         if (m_memoryInUse + memory > m_options.maxMemoryBytes)
             throw FarmError(Kind::ResourceExhausted,
                             absl::StrFormat("cannot retry job %u now: it needs about %s of "

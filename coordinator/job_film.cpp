@@ -178,14 +178,18 @@ void JobFilm::readDecisions() {
         std::count_if(m_finishedAt.begin(), m_finishedAt.end(), [](uint32_t p) { return p > 0; }));
 }
 
-uint64_t JobFilm::memoryBytes(int width, int height, uint64_t unitCount) {
+uint64_t JobFilm::memoryBytes(int width, int height, uint64_t unitCount,
+                              SmallerRadius smallerRadius) {
     // Per unit a merged flag (a bit, counted as a byte); per chunk a counter (fewer than units).
-    return uint64_t(width) * uint64_t(height) * FilmBlock(0, 0, 0, 0).bytesPerPixel() + unitCount;
+    return uint64_t(width) * uint64_t(height) *
+               FilmBlock(0, 0, 0, 0, PassHalves::Kept, smallerRadius).bytesPerPixel() +
+           unitCount;
 }
 
 void JobFilm::startEmpty() {
     forget();
-    m_film = FilmBlock(0, 0, m_grid.width(), m_grid.height());
+    m_film = FilmBlock(0, 0, m_grid.width(), m_grid.height(), PassHalves::Kept,
+                       m_grid.tiles().smallerRadius());
 }
 
 void JobFilm::forget() {
@@ -214,6 +218,12 @@ void JobFilm::resetState() {
 }
 
 void JobFilm::restore(Checkpoint checkpoint, bool keepFilm) {
+    const bool jobKeepsSmallerRadius = m_grid.tiles().smallerRadius() == SmallerRadius::Kept;
+    if (checkpoint.film.width() > 0 &&
+        checkpoint.film.keepsSmallerRadius() != jobKeepsSmallerRadius)
+        fail("%s: the checkpoint's film %s the smaller radius's image, the job's %s", m_path,
+             checkpoint.film.keepsSmallerRadius() ? "keeps" : "does not keep",
+             jobKeepsSmallerRadius ? "does" : "does not");
     resetState();
     if (m_adaptive) {
         // The decisions file, not the merged flags, tells which tiles finished (a skipped unit
@@ -300,6 +310,7 @@ void describeEstimate(const JobFilm& film, v1::JobStatus& status) {
     if (!estimate) return;
     status.set_error_estimate(estimate->relativeRmse);
     status.set_error_estimate_passes(estimate->passes);
+    if (estimate->relativeBias) status.set_error_bias(*estimate->relativeBias);
     if (film.targetError())
         status.set_projected_passes(projectedPasses(*estimate, *film.targetError()));
     if (film.adaptive()) {

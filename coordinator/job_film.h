@@ -45,7 +45,8 @@ class JobFilm {
     JobFilm(JobFilm&&) = delete;
 
     // Memory a running job's film and merged flags take.
-    static uint64_t memoryBytes(int width, int height, uint64_t unitCount);
+    static uint64_t memoryBytes(int width, int height, uint64_t unitCount,
+                                SmallerRadius smallerRadius = SmallerRadius::None);
 
     // Starts with nothing merged and a zero film in memory.
     void startEmpty();

@@ -299,5 +299,84 @@ TEST(JobFilm, AVersion1CheckpointIsReadWithoutAnEstimate) {
     fs::remove_all(dir);
 }
 
+// A job whose films keep the smaller radius's image (a progressive photon mapper's): its film,
+// its checkpoints (version 3) and its estimate carry it, and the estimate has the bias; a
+// checkpoint of version 2 is read as a film without it, which such a job refuses by name.
+TEST(JobFilm, TheSmallerRadiusIsMergedCheckpointedAndEstimated) {
+    const fs::path dir =
+        fs::temp_directory_path() / ("alphorn_job_film_radii_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const std::string path = (dir / "film.ckpt").string();
+    const farm::JobGrid grid(TileGrid(4, 4, 4, 1, SmallerRadius::Kept), 4, 1);
+    EXPECT_GT(JobFilm::memoryBytes(4, 4, 4, SmallerRadius::Kept),
+              JobFilm::memoryBytes(4, 4, 4) + 16 * 2 * sizeof(PixelSum) - 1);
+    JobFilm film(grid, path, 0.001);
+    film.startEmpty();
+    ASSERT_TRUE(film.film().keepsSmallerRadius());
+    for (uint32_t pass = 0; pass < 4; ++pass) {
+        FilmBlock block = grid.tiles().block(grid.unit(pass).tile);
+        ASSERT_TRUE(block.keepsSmallerRadius());
+        FilmBlock samples(block.x0(), block.y0(), block.width(), block.height(), PassHalves::None,
+                          SmallerRadius::Kept);
+        for (int y = 0; y < 4; ++y)
+            for (int x = 0; x < 4; ++x) {
+                const double value = 1.0 + 0.1 * x + 0.01 * ((pass + y) % 3);
+                for (int c = 0; c < 3; ++c) {
+                    samples.at(x, y).rgb[c] = toFixedPoint(value);
+                    samples.smallerRadiusAt(x, y).rgb[c] = toFixedPoint(0.7 * value);
+                }
+                samples.at(x, y).weight = samples.smallerRadiusAt(x, y).weight = toFixedPoint(1);
+            }
+        block.addPassesOfParity(samples, pass % 2 == 1);
+        film.merge(pass, block);
+    }
+    ASSERT_TRUE(film.estimate() && film.estimate()->relativeBias);
+    EXPECT_GT(*film.estimate()->relativeBias, 0.3);
+    v1::JobStatus status;
+    describeEstimate(film, status);
+    ASSERT_TRUE(status.has_error_bias());
+    EXPECT_EQ(status.error_bias(), *film.estimate()->relativeBias);
+    const JobFilm::Copy copy = film.copy();
+    film.writeFile(copy);
+    EXPECT_EQ(farm::readFile(path)[7], '3');
+    JobFilm restored(grid, path, 0.001);
+    restored.restore(restored.readFile(), true);
+    EXPECT_EQ(restored.film().serialize(), film.film().serialize());
+    ASSERT_TRUE(restored.estimate() && restored.estimate()->relativeBias);
+    EXPECT_EQ(*restored.estimate()->relativeBias, *film.estimate()->relativeBias);
+
+    // The same file as version 2 (no smaller-radius flag, image sums only).
+    FilmBlock image(0, 0, 4, 4);
+    image.add(film.film());
+    std::string bytes = "ALPHCKP2";
+    const auto put = [&](auto value) {
+        bytes.append(reinterpret_cast<const char*>(&value), sizeof value);
+    };
+    put(uint32_t(4));
+    put(uint32_t(4));
+    put(uint32_t(grid.unitCount()));
+    put(uint64_t(0));
+    put(uint8_t(1));
+    for (uint32_t i = 0; i < grid.unitCount(); ++i) bytes.push_back(1);
+    const std::string compressed = farm::compressFilm(image);
+    put(uint64_t(compressed.size()));
+    bytes += compressed;
+    bytes += farm::sha256Hex(bytes);
+    farm::writeFileAtomically(path, bytes);
+    const farm::JobGrid oldGrid(TileGrid(4, 4, 4, 1), 4, 1);
+    JobFilm old(oldGrid, path);
+    old.restore(old.readFile(), true);
+    EXPECT_FALSE(old.film().keepsSmallerRadius());
+    EXPECT_EQ(old.film().serialize(), image.serialize());
+    try {
+        restored.restore(restored.readFile(), true);
+        FAIL() << "a film without the smaller radius was restored into a job that keeps it";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("smaller radius"), std::string::npos) << e.what();
+    }
+    fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace alphorn::coordinator

@@ -51,6 +51,7 @@ struct AddedColumn {
 constexpr AddedColumn kAddedColumns[] = {
     {"jobs", "paused", "INTEGER NOT NULL DEFAULT 0"},
     {"workers", "draining", "INTEGER NOT NULL DEFAULT 0"},
+    {"jobs", "smaller_radius", "INTEGER NOT NULL DEFAULT 0"},
 };
 
 using Value = StateDatabase::Value;
@@ -95,12 +96,12 @@ std::string JobStore::leaseKey() {
 }
 
 uint64_t JobStore::addJob(const v1::JobDescription& description, int width, int height,
-                          int filterBorder, double createdAt) {
+                          int filterBorder, double createdAt, bool smallerRadius) {
     const auto rows = m_db.query(
-        "INSERT INTO jobs(description, state, width, height, filter_border, created_at) "
-        "VALUES(?, ?, ?, ?, ?, ?) RETURNING id",
+        "INSERT INTO jobs(description, state, width, height, filter_border, created_at, "
+        "smaller_radius) VALUES(?, ?, ?, ?, ?, ?, ?) RETURNING id",
         {description.SerializeAsString(), int64_t(v1::JOB_STATE_RUNNING), int64_t(width),
-         int64_t(height), int64_t(filterBorder), createdAt});
+         int64_t(height), int64_t(filterBorder), createdAt, int64_t(smallerRadius ? 1 : 0)});
     const uint64_t id = uint64_t(StateDatabase::integer(rows.at(0).at(0)));
     // The stored description carries its id too, so workers told of a resumed job load that
     // job's scene and no other. (No transaction: the connection is shared between threads.)
@@ -123,7 +124,8 @@ uint64_t JobStore::addJob(const v1::JobDescription& description, int width, int 
 std::vector<JobRow> JobStore::jobs() {
     std::vector<JobRow> result;
     for (const auto& row : m_db.query("SELECT id, description, state, error, width, height, "
-                                      "filter_border, created_at, finished_at, paused FROM jobs")) {
+                                      "filter_border, created_at, finished_at, paused, "
+                                      "smaller_radius FROM jobs")) {
         JobRow job;
         job.id = uint64_t(StateDatabase::integer(row[0]));
         v1::JobDescription description;
@@ -140,6 +142,7 @@ std::vector<JobRow> JobStore::jobs() {
         job.createdAt = real(row[7]);
         job.finishedAt = real(row[8]);
         job.paused = StateDatabase::integer(row[9]) != 0;
+        job.smallerRadius = StateDatabase::integer(row[10]) != 0;
         result.push_back(std::move(job));
     }
     return result;

@@ -24,6 +24,8 @@ struct JobRow {
     int64_t state = 0;  // an alphorn.v1.JobState, unchecked
     std::string error;
     int width = 0, height = 0, filterBorder = 0;
+    // The job's films keep the smaller radius's image (false for jobs stored before it existed).
+    bool smallerRadius = false;
     double createdAt = 0;
     double finishedAt = 0;  // 0 while running
     bool paused = false;    // a client paused it (no new leases)
@@ -55,7 +57,7 @@ class JobStore {
 
     // Stores a new running job and returns its id; the stored description carries the id.
     uint64_t addJob(const v1::JobDescription& description, int width, int height, int filterBorder,
-                    double createdAt);
+                    double createdAt, bool smallerRadius = false);
     std::vector<JobRow> jobs();
     // Records that a job ended (or, with JOB_STATE_RUNNING and finishedAt 0, runs again).
     void setJobState(uint64_t jobId, v1::JobState state, const std::string& error,

@@ -36,7 +36,7 @@ TEST_F(JobStoreTest, JobsRoundTripUnderTheirOwnIds) {
         JobStore store(path());
         first = store.addJob(description, 40, 30, 2, 1000.5);
         description.mutable_settings()->set_name("second");
-        second = store.addJob(description, 8, 6, 0, 1001);
+        second = store.addJob(description, 8, 6, 0, 1001, true);
         store.setJobState(first, v1::JOB_STATE_FAILED, "it broke", 2000.25);
         store.setUnitAttempts(second, 3, 2, "lease expired");
         store.setUnitAttempts(second, 3, 3, "out of memory");
@@ -53,6 +53,8 @@ TEST_F(JobStoreTest, JobsRoundTripUnderTheirOwnIds) {
     EXPECT_EQ(jobs[0].width, 40);
     EXPECT_EQ(jobs[0].height, 30);
     EXPECT_EQ(jobs[0].filterBorder, 2);
+    EXPECT_FALSE(jobs[0].smallerRadius);
+    EXPECT_TRUE(jobs[1].smallerRadius);
     EXPECT_EQ(jobs[0].createdAt, 1000.5);
     EXPECT_EQ(jobs[0].finishedAt, 2000.25);
     EXPECT_EQ(jobs[1].description->job_id(), second);

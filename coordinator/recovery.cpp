@@ -70,7 +70,8 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
     const v1::JobSettings& settings = job.description.settings();
     job.filterBorder = row.filterBorder;
     job.grid =
-        farm::JobGrid(TileGrid(row.width, row.height, int(settings.tile_size()), row.filterBorder),
+        farm::JobGrid(TileGrid(row.width, row.height, int(settings.tile_size()), row.filterBorder,
+                               row.smallerRadius ? SmallerRadius::Kept : SmallerRadius::None),
                       settings.passes(), settings.passes_per_unit());
     const uint32_t unitCount = job.grid.unitCount();
     std::vector<uint32_t> attempts(unitCount, 0);
@@ -110,11 +111,14 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
     fs::create_directories(jobDirectory(job.id));
     m_scheduler->setPaused(job.id, row.paused);
     if (!job.film->inMemory()) {
-        const Checkpoint none{FilmBlock(0, 0, row.width, row.height), job.film->merged()};
+        const Checkpoint none{FilmBlock(0, 0, row.width, row.height, PassHalves::Kept,
+                                        job.grid.tiles().smallerRadius()),
+                              job.film->merged()};
         job.film->restore(none, true);
     }
     m_scheduler->setLeaseLimit(job.id, job.film->leaseLimit());
-    job.memoryBytes = jobMemoryBytes(row.width, row.height, unitCount);
+    job.memoryBytes =
+        jobMemoryBytes(row.width, row.height, unitCount, job.grid.tiles().smallerRadius());
     job.restored = job.film->mergedCount();
     eventLocked(job, v1::JOB_EVENT_RESUMED_AFTER_RESTART,
                 absl::StrFormat("a coordinator process took the job up again: %u of %u units "

@@ -45,6 +45,9 @@ void decompressFilm(const std::string& compressed, FilmBlock& block) {
         for (int x = block.x0(); x < block.x0() + block.width(); ++x) {
             check(block.at(x, y), x, y);
             if (block.keepsHalves()) check(block.oddAt(x, y), x, y);
+            if (block.keepsSmallerRadius()) check(block.smallerRadiusAt(x, y), x, y);
+            if (block.keepsSmallerRadius() && block.keepsHalves())
+                check(block.smallerRadiusOddAt(x, y), x, y);
         }
 }
 

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "common/core/color.h"
+#include "common/core/error.h"
 #include "common/core/object.h"
 #include "common/core/ray.h"
 
@@ -27,6 +28,17 @@ struct RadiusSchedule {
     double alpha = 0.0;
 };
 
+// The radiance along one camera ray gathered at a pass's radius r_i and at the smaller radius
+// r_i / sqrt(2), from the same camera path and the same photons.
+struct TwoRadiiRadiance {
+    Color3f atPassRadius;
+    Color3f atSmallerRadius;
+};
+
+// The smaller radius's share of the pass radius's disk area: r_small^2 = kSmallerRadiusAreaRatio
+// r_i^2 (estimateRelativeBiasTwoRadii's areaRatio).
+inline constexpr double kSmallerRadiusAreaRatio = 0.5;
+
 class Integrator : public Object {
   public:
     ObjectKind kind() const override { return ObjectKind::Integrator; }
@@ -44,6 +56,16 @@ class Integrator : public Object {
     // Radiance along `ray`; `pass` is what preparePass returned for the current pass.
     virtual Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,
                        const PassData* pass) const = 0;
+    // Whether LiTwoRadii() returns the radiance at a second, smaller gather radius: a
+    // progressive photon mapper with fixed radii. Its films then keep that image's sums, whose
+    // difference from the image estimates the radius's bias (docs/error-estimate.md).
+    virtual bool estimatesBiasWithTwoRadii() const { return false; }
+    // Li() (the same floats) and, from the same gather, the radiance at the smaller radius.
+    // Only for integrators whose estimatesBiasWithTwoRadii() holds.
+    virtual TwoRadiiRadiance LiTwoRadii(const Scene&, Sampler&, const Ray3f&,
+                                        const PassData*) const {
+        fail("this integrator gathers at one radius only");
+    }
     // Contributions of a pass that land anywhere on the image rather than at the unit's own
     // camera samples (light paths connected to the camera). A unit adds those that fall on the
     // pixels [x0, x1) x [y0, y1) of its own tile, and only those, so every such contribution is

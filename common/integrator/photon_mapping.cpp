@@ -170,4 +170,24 @@ Color3f PhotonMappingIntegrator::reflectedRadiance(const PhotonPassData& data,
     return density * static_cast<float>(data.powerScale);
 }
 
+TwoRadiiRadiance PhotonMappingIntegrator::reflectedRadianceTwoRadii(const PhotonPassData& data,
+                                                                    const Intersection& its,
+                                                                    const BSDF& bsdf,
+                                                                    const Vector3f& wi) const {
+    if (m_surfaceK != 0) fail("a k-nearest-neighbour photon map gathers at one radius only");
+    if (data.surface.empty()) return {Color3f(0.0f), Color3f(0.0f)};
+    BSDFQueryRecord rec = makeBSDFQuery(its, wi);
+    rec.measure = Measure::SolidAngle;
+    auto weight = [&](const Photon& photon) {
+        rec.wo = its.toLocal(photon.direction);
+        return Color3f(bsdf.eval(rec) * photon.power);
+    };
+    const float smallerRadius =
+        static_cast<float>(double(data.surfaceRadius) * std::sqrt(kSmallerRadiusAreaRatio));
+    const auto [density, smallerDensity] =
+        fixedRadiusEstimateTwoRadii(data.surface, its.p, data.surfaceRadius, smallerRadius, weight);
+    const float scale = static_cast<float>(data.powerScale);
+    return {density * scale, smallerDensity * scale};
+}
+
 }  // namespace alphorn

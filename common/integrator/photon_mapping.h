@@ -55,6 +55,12 @@ class PhotonMappingIntegrator : public Integrator {
     // Radiance leaving the non-delta surface `its` towards wi (local), from the surface photons.
     Color3f reflectedRadiance(const PhotonPassData& data, const Intersection& its, const BSDF& bsdf,
                               const Vector3f& wi) const;
+    // reflectedRadiance() (the same floats) and the same at the pass's smaller radius
+    // (kSmallerRadiusAreaRatio of its disk), from one query of a fixed-radius map.
+    TwoRadiiRadiance reflectedRadianceTwoRadii(const PhotonPassData& data, const Intersection& its,
+                                               const BSDF& bsdf, const Vector3f& wi) const;
+    // Progressive mode with fixed radii: the camera paths can gather at two radii.
+    bool gathersAtTwoRadii() const { return m_progressive && m_surfaceK == 0; }
     // One step of a camera path along a chain of delta surfaces (mirrors, glass) at `its`,
     // seen from local direction `wi`: Russian roulette from the fourth bounce on (`depth`
     // counts the earlier ones; roulette, not a cap, ends chains between mirrors), then the

@@ -42,28 +42,15 @@ class PhotonMapper : public PhotonMappingIntegrator {
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
                const PassData* passData) const override {
-        const PhotonPassData& data = photonPassData(passData);
-        Color3f result(0.0f), throughput(1.0f);
-        float etaScale = 1.0f;
-        Ray3f ray = cameraRay;
-        for (int depth = 0;; ++depth) {
-            Intersection its;
-            if (!scene.rayIntersect(ray, its)) break;
-            const Vector3f dir = ray.d.normalized();
-            result += throughput * emittedRadiance(ray.o, dir, its);
-            const BSDF& bsdf = *its.mesh->bsdf();
-            const Vector3f wi = its.toLocal(-dir);
-            if (bsdf.isDiffuse()) {
-                result += throughput * reflectedRadiance(data, its, bsdf, wi);
-                if (samplesDirectLight())
-                    result += throughput * sampleDirect(scene, sampler, its, bsdf, wi, false);
-                break;
-            }
-            const auto wo = followDeltaChain(its, wi, depth, sampler, throughput, etaScale);
-            if (!wo) break;
-            ray = Ray3f(its.p, *wo);
-        }
-        return result;
+        return trace<false>(scene, sampler, cameraRay, passData).atPassRadius;
+    }
+
+    bool estimatesBiasWithTwoRadii() const override { return gathersAtTwoRadii(); }
+    TwoRadiiRadiance LiTwoRadii(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
+                                const PassData* passData) const override {
+        if (!gathersAtTwoRadii())
+            fail("photonmapper gathers at two radii only with progressive fixed radii");
+        return trace<true>(scene, sampler, cameraRay, passData);
     }
 
     std::string toString() const override {
@@ -76,6 +63,48 @@ class PhotonMapper : public PhotonMappingIntegrator {
     }
 
   private:
+    // The camera path. With TwoRadii, the radiance at the smaller radius too: the same path with
+    // the photon estimate gathered at the smaller radius (the first result's floats are Li()'s).
+    template <bool TwoRadii>
+    TwoRadiiRadiance trace(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
+                           const PassData* passData) const {
+        const PhotonPassData& data = photonPassData(passData);
+        Color3f result(0.0f), smallerResult(0.0f), throughput(1.0f);
+        float etaScale = 1.0f;
+        Ray3f ray = cameraRay;
+        for (int depth = 0;; ++depth) {
+            Intersection its;
+            if (!scene.rayIntersect(ray, its)) break;
+            const Vector3f dir = ray.d.normalized();
+            const Color3f emitted = throughput * emittedRadiance(ray.o, dir, its);
+            result += emitted;
+            if constexpr (TwoRadii) smallerResult += emitted;
+            const BSDF& bsdf = *its.mesh->bsdf();
+            const Vector3f wi = its.toLocal(-dir);
+            if (bsdf.isDiffuse()) {
+                if constexpr (TwoRadii) {
+                    const TwoRadiiRadiance reflected =
+                        reflectedRadianceTwoRadii(data, its, bsdf, wi);
+                    result += throughput * reflected.atPassRadius;
+                    smallerResult += throughput * reflected.atSmallerRadius;
+                } else {
+                    result += throughput * reflectedRadiance(data, its, bsdf, wi);
+                }
+                if (samplesDirectLight()) {
+                    const Color3f direct =
+                        throughput * sampleDirect(scene, sampler, its, bsdf, wi, false);
+                    result += direct;
+                    if constexpr (TwoRadii) smallerResult += direct;
+                }
+                break;
+            }
+            const auto wo = followDeltaChain(its, wi, depth, sampler, throughput, etaScale);
+            if (!wo) break;
+            ray = Ray3f(its.p, *wo);
+        }
+        return {result, smallerResult};
+    }
+
     std::shared_ptr<const PhotonPassData> tracePass(const Scene& scene, uint64_t seed,
                                                     uint64_t pass) const override {
         TracedPhotons traced = tracePhotons(scene, seed, pass, m_photonCount, directPhotons());

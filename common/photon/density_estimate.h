@@ -7,6 +7,7 @@
 #include "common/core/common.h"
 #include "common/photon/photon_map.h"
 
+#include <utility>
 #include <vector>
 
 namespace alphorn {
@@ -18,6 +19,27 @@ Color3f fixedRadiusEstimate(const PhotonMap& map, const Point3f& x, float radius
     map.forEachWithin(x, radius, [&](const Photon& photon, float) { sum += weight(photon); });
     if (sum.isBlack()) return sum;
     return sum * static_cast<float>(1.0 / (M_PI * double(radius) * double(radius)));
+}
+
+// fixedRadiusEstimate at `radius` (the same floats) and at `smallerRadius` (< radius) from one
+// query: the smaller disk's photons are those of the larger one nearer than smallerRadius.
+template <typename Weight>
+std::pair<Color3f, Color3f> fixedRadiusEstimateTwoRadii(const PhotonMap& map, const Point3f& x,
+                                                        float radius, float smallerRadius,
+                                                        Weight&& weight) {
+    Color3f sum(0.0f), smallerSum(0.0f);
+    const float smallerRadius2 = smallerRadius * smallerRadius;
+    map.forEachWithin(x, radius, [&](const Photon& photon, float distance2) {
+        const Color3f w = weight(photon);
+        sum += w;
+        if (distance2 < smallerRadius2) smallerSum += w;
+    });
+    const auto density = [](const Color3f& total, float r) {
+        return total.isBlack()
+                   ? total
+                   : Color3f(total * static_cast<float>(1.0 / (M_PI * double(r) * double(r))));
+    };
+    return {density(sum, radius), density(smallerSum, smallerRadius)};
 }
 
 // k nearest neighbours, searched within maxRadius. With r_k the distance to the k-th nearest

@@ -158,7 +158,14 @@ std::optional<double> estimateRelativeBiasTemporal(const FilmBlock& film, const 
 std::optional<ErrorEstimate> estimateError(const FilmBlock& film, const Tile& region,
                                            uint32_t passes) {
     if (passes < 2 || !film.keepsHalves()) return std::nullopt;
-    return makeEstimate(sumRegion(film, region, passes), passes);
+    std::optional<ErrorEstimate> estimate = makeEstimate(sumRegion(film, region, passes), passes);
+    if (!estimate || !film.keepsSmallerRadius()) return estimate;
+    // A progressive photon mapper's film: its halves see the noise only; the two radii's images
+    // add the radius's bias.
+    if (const auto bias = estimateRelativeBiasTwoRadii(film, film.smallerRadiusFilm(), region,
+                                                       passes, kSmallerRadiusAreaRatio))
+        return withBias(*estimate, *bias);
+    return estimate;
 }
 
 std::vector<Tile> adaptiveTiles(int width, int height) {

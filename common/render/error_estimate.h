@@ -16,6 +16,8 @@
 #include "common/render/film.h"
 #include "common/render/unit.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -28,6 +30,12 @@ struct ErrorEstimate {
     // The part of relativeRmse due to the bias of a progressive photon mapper's radius
     // (withBias()), when one was estimated: relativeRmse^2 = noise^2 + relativeBias^2.
     std::optional<double> relativeBias;
+    // The noise part of relativeRmse (all of it when no bias was estimated).
+    double relativeNoise() const {
+        return relativeBias ? std::sqrt(std::max(
+                                  0.0, relativeRmse * relativeRmse - *relativeBias * *relativeBias))
+                            : relativeRmse;
+    }
     double meanLuminance = 0.0;  // of the full image over the pixels counted
     uint64_t pixels = 0;         // pixels with samples in both halves
     // How the error has fallen: the log-log slope of the estimates at this and the previous
@@ -37,7 +45,9 @@ struct ErrorEstimate {
 
 // The estimate over the pixels of `region` of a film holding passes [0, passes). Nothing when
 // it cannot be made: fewer than 2 passes, a film without halves, no pixel with samples in both
-// halves, or a black image (no mean to relate the error to).
+// halves, or a black image (no mean to relate the error to). When the film keeps the smaller
+// radius's image (a progressive photon mapper's), the two-radii bias is added (withBias) and
+// reported in relativeBias.
 std::optional<ErrorEstimate> estimateError(const FilmBlock& film, const Tile& region,
                                            uint32_t passes);
 

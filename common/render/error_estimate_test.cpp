@@ -272,7 +272,7 @@ TEST(ErrorEstimateAccuracy, ProgressivePhotonMappingNoiseEstimateMatchesAShortRe
     const std::vector<double> reference =
         luminances(renderLocal(*scene, settings, {}, nullptr, &referenceStatus), width, height);
     ASSERT_TRUE(referenceStatus.estimate);
-    const double referenceNoise = referenceStatus.estimate->relativeRmse;
+    const double referenceNoise = referenceStatus.estimate->relativeNoise();
     std::vector<double> logRatios;
     for (uint64_t seed = 1; seed <= 8; ++seed) {
         settings.seed = seed;
@@ -284,10 +284,13 @@ TEST(ErrorEstimateAccuracy, ProgressivePhotonMappingNoiseEstimateMatchesAShortRe
         const double measured = trueRelativeRmse(image, reference);
         const double truth =
             std::sqrt(std::max(0.0, measured * measured - referenceNoise * referenceNoise));
-        logRatios.push_back(std::log(status.estimate->relativeRmse / truth));
+        // The film also estimates the radius's bias; the reference shares it, so the noise is
+        // what is compared here.
+        ASSERT_TRUE(status.estimate->relativeBias);
+        const double noise = status.estimate->relativeNoise();
+        logRatios.push_back(std::log(noise / truth));
         std::printf("photonmapper seed %llu, %u passes: estimated %.4f, true %.4f, ratio %.3f\n",
-                    (unsigned long long)seed, passes, status.estimate->relativeRmse, truth,
-                    status.estimate->relativeRmse / truth);
+                    (unsigned long long)seed, passes, noise, truth, noise / truth);
     }
     const RatioTest test = testLogRatios(logRatios);
     std::printf("%s\n", test.message.c_str());
@@ -319,8 +322,6 @@ TEST(ErrorEstimateAccuracy, BiasEstimateCoversTheRadiusBiasOfProgressivePhotonMa
     ASSERT_TRUE(referenceStatus.estimate);
     const double referenceNoise = referenceStatus.estimate->relativeRmse;
     scene->setIntegrator(progressivePhotonMapper(20000, radius, "photons"));
-    const std::shared_ptr<Scene> smaller = smallPathTracedScene(width, height);
-    smaller->setIntegrator(progressivePhotonMapper(20000, radius / std::sqrt(2.0f), "photons"));
     const Tile region{0, 0, width, height};
     std::vector<double> noiseLogRatios, temporalLogRatios, twoRadiiLogRatios;
     for (uint64_t seed = 1; seed <= 8; ++seed) {
@@ -329,18 +330,20 @@ TEST(ErrorEstimateAccuracy, BiasEstimateCoversTheRadiusBiasOfProgressivePhotonMa
         RenderStatus status;
         const FilmBlock film = renderLocal(*scene, settings, {}, nullptr, &status);
         ASSERT_TRUE(status.estimate);
-        const FilmBlock smallerFilm = renderLocal(*smaller, settings);
+        ASSERT_TRUE(film.keepsSmallerRadius());
         settings.passes = passes / 2;
         const FilmBlock earlier = renderLocal(*scene, settings);
         const double measured = trueRelativeRmse(luminances(film, width, height), reference);
         const double truth =
             std::sqrt(std::max(0.0, measured * measured - referenceNoise * referenceNoise));
-        const auto twoRadii = estimateRelativeBiasTwoRadii(film, smallerFilm, region, passes);
+        // The render's own estimate: the film keeps the smaller radius's image, gathered from
+        // the same camera paths and photons, and adds the two-radii bias to the noise.
+        const auto twoRadii = status.estimate->relativeBias;
         const auto temporal = estimateRelativeBiasTemporal(film, earlier, region, passes, 0.5);
         ASSERT_TRUE(twoRadii && temporal);
-        const double noise = status.estimate->relativeRmse;
-        const double withTwoRadii = withBias(*status.estimate, *twoRadii).relativeRmse;
-        const double withTemporal = withBias(*status.estimate, *temporal).relativeRmse;
+        const double noise = status.estimate->relativeNoise();
+        const double withTwoRadii = status.estimate->relativeRmse;
+        const double withTemporal = std::hypot(noise, *temporal);
         noiseLogRatios.push_back(std::log(noise / truth));
         twoRadiiLogRatios.push_back(std::log(withTwoRadii / truth));
         temporalLogRatios.push_back(std::log(withTemporal / truth));
@@ -397,6 +400,95 @@ TEST(ErrorEstimate, HalvesAndStoppingPassIgnoreThreadsAndTiles) {
     EXPECT_TRUE(isDecisionPasses(firstStop, 256));
     EXPECT_LT(firstStop, 256u);
     EXPECT_GT(firstStop, 4u) << "choose a target the first decision does not reach";
+}
+
+// A progressive photon mapper's film keeps the smaller radius's image, as exact as the image:
+// the same bytes (both radii, both halves) at any thread count and tile size, and the same
+// stopping pass for a target. Gathering the second radius changes no float of the image: its
+// sums equal those of a film without the second radius, and its estimate carries the bias.
+TEST(ErrorEstimate, TwoRadiiSumsIgnoreThreadsAndTilesAndLeaveTheImageAlone) {
+    const std::shared_ptr<Scene> scene = smallPathTracedScene(20, 14);
+    EXPECT_EQ(filmSmallerRadius(*scene), SmallerRadius::None) << "a path tracer keeps one image";
+    scene->setIntegrator(progressivePhotonMapper(2000, 0.6f, "photons"));
+    ASSERT_EQ(filmSmallerRadius(*scene), SmallerRadius::Kept);
+    std::string firstBytes, firstTargetBytes;
+    uint32_t firstStop = 0;
+    for (int threads : {1, 2})
+        for (int tile : {8, 5}) {
+            tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+            RenderSettings settings;
+            settings.seed = 7;
+            settings.passes = 6;
+            settings.tileSize = tile;
+            settings.passesPerUnit = tile == 8 ? 4 : 1;
+            const FilmBlock film = renderLocal(*scene, settings);
+            ASSERT_TRUE(film.keepsSmallerRadius());
+            const std::string bytes = film.serialize();
+            settings.passes = 64;
+            settings.targetError = 0.25;
+            RenderStatus status;
+            const std::string targetBytes =
+                renderLocal(*scene, settings, {}, nullptr, &status).serialize();
+            ASSERT_TRUE(status.estimate && status.estimate->relativeBias);
+            if (firstBytes.empty()) {
+                firstBytes = bytes;
+                firstStop = status.passesDone;
+                firstTargetBytes = targetBytes;
+                continue;
+            }
+            EXPECT_EQ(bytes, firstBytes) << threads << " threads, tile " << tile;
+            EXPECT_EQ(status.passesDone, firstStop) << threads << " threads, tile " << tile;
+            EXPECT_EQ(targetBytes, firstTargetBytes) << threads << " threads, tile " << tile;
+        }
+    EXPECT_GT(firstStop, 4u) << "choose a target the first decision does not reach";
+
+    // The same unit rendered into a block without the smaller radius: identical image sums.
+    const TileGrid grid(*scene, 8);
+    const Tile tile = grid.tiles()[3];
+    const auto passData = preparePasses(*scene, 7, 0, 3);
+    FilmBlock twoRadii = grid.block(tile);
+    ASSERT_TRUE(twoRadii.keepsSmallerRadius());
+    FilmBlock oneRadius = unitBlock(tile, grid.border());
+    ASSERT_FALSE(oneRadius.keepsSmallerRadius());
+    ASSERT_TRUE(renderUnit(*scene, 7, RenderUnit{0, 3, tile}, passData, twoRadii));
+    ASSERT_TRUE(renderUnit(*scene, 7, RenderUnit{0, 3, tile}, passData, oneRadius));
+    const std::string imageBytes = oneRadius.serialize();
+    EXPECT_EQ(twoRadii.serialize().substr(0, imageBytes.size()), imageBytes);
+    // ... and the smaller radius's image differs from it (a different gather, not a copy).
+    EXPECT_NE(twoRadii.serialize().substr(imageBytes.size()), imageBytes);
+}
+
+// The bias a film's two radii show is the one estimateRelativeBiasTwoRadii finds in them, added
+// to the noise in quadrature; a film without the smaller radius reports no bias.
+TEST(ErrorEstimate, FilmWithTwoRadiiAddsTheBias) {
+    FilmBlock film(0, 0, 2, 1, PassHalves::Kept, SmallerRadius::Kept);
+    const auto set = [](PixelSum& sum, double value, double weight) {
+        for (int c = 0; c < 3; ++c) sum.rgb[c] = toFixedPoint(value * weight);
+        sum.weight = toFixedPoint(weight);
+    };
+    for (int x = 0; x < 2; ++x) {
+        set(film.at(x, 0), 1.0 + 0.1 * x, 4.0);
+        set(film.oddAt(x, 0), 1.05 + 0.1 * x, 2.0);
+        set(film.smallerRadiusAt(x, 0), 0.8, 4.0);
+        set(film.smallerRadiusOddAt(x, 0), 0.82, 2.0);
+    }
+    const Tile region{0, 0, 2, 1};
+    const auto estimate = estimateError(film, region, 4);
+    ASSERT_TRUE(estimate && estimate->relativeBias);
+    const auto bias = estimateRelativeBiasTwoRadii(film, film.smallerRadiusFilm(), region, 4, 0.5);
+    ASSERT_TRUE(bias);
+    EXPECT_GT(*bias, 0.1);
+    EXPECT_DOUBLE_EQ(*estimate->relativeBias, *bias);
+    FilmBlock imageOnly(0, 0, 2, 1);
+    for (int x = 0; x < 2; ++x) {
+        imageOnly.at(x, 0) = film.at(x, 0);
+        imageOnly.oddAt(x, 0) = film.oddAt(x, 0);
+    }
+    const auto noise = estimateError(imageOnly, region, 4);
+    ASSERT_TRUE(noise);
+    EXPECT_FALSE(noise->relativeBias);
+    EXPECT_DOUBLE_EQ(estimate->relativeRmse, std::hypot(noise->relativeRmse, *bias));
+    EXPECT_NEAR(estimate->relativeNoise(), noise->relativeRmse, 1e-12);
 }
 
 }  // namespace

@@ -8,19 +8,33 @@
 
 namespace alphorn {
 
-FilmBlock::FilmBlock(int x0, int y0, int width, int height, PassHalves halves)
+FilmBlock::FilmBlock(int x0, int y0, int width, int height, PassHalves halves,
+                     SmallerRadius smallerRadius)
     : m_x0(x0),
       m_y0(y0),
       m_width(width),
       m_height(height),
       m_halves(halves),
+      m_smallerRadius(smallerRadius),
       m_pixels(static_cast<size_t>(width) * height),
-      m_odd(halves == PassHalves::Kept ? m_pixels.size() : 0) {}
+      m_odd(halves == PassHalves::Kept ? m_pixels.size() : 0),
+      m_smaller(smallerRadius == SmallerRadius::Kept ? m_pixels.size() : 0),
+      m_smallerOdd(halves == PassHalves::Kept && smallerRadius == SmallerRadius::Kept
+                       ? m_pixels.size()
+                       : 0) {}
 
 void FilmBlock::clear() {
-    std::fill(m_pixels.begin(), m_pixels.end(), PixelSum{});
-    std::fill(m_odd.begin(), m_odd.end(), PixelSum{});
+    for (std::vector<PixelSum>* sums : {&m_pixels, &m_odd, &m_smaller, &m_smallerOdd})
+        std::fill(sums->begin(), sums->end(), PixelSum{});
     invalidSamples = 0;
+}
+
+FilmBlock FilmBlock::smallerRadiusFilm() const {
+    if (!keepsSmallerRadius()) fail("the film keeps no smaller radius's sums");
+    FilmBlock film(m_x0, m_y0, m_width, m_height, m_halves);
+    film.m_pixels = m_smaller;
+    film.m_odd = m_smallerOdd;
+    return film;
 }
 
 namespace {
@@ -41,6 +55,8 @@ void forOverlap(const FilmBlock& a, const FilmBlock& b, F&& f) {
 void FilmBlock::add(const FilmBlock& other) {
     if (keepsHalves() && !other.keepsHalves())
         fail("cannot add a film without pass halves into one that keeps them");
+    if (keepsSmallerRadius() && !other.keepsSmallerRadius())
+        fail("cannot add a film without the smaller radius's sums into one that keeps them");
     if (keepsHalves())
         forOverlap(*this, other, [&](int x, int y) {
             at(x, y) += other.at(x, y);
@@ -48,10 +64,17 @@ void FilmBlock::add(const FilmBlock& other) {
         });
     else
         forOverlap(*this, other, [&](int x, int y) { at(x, y) += other.at(x, y); });
+    if (keepsSmallerRadius())
+        forOverlap(*this, other, [&](int x, int y) {
+            smallerRadiusAt(x, y) += other.smallerRadiusAt(x, y);
+            if (keepsHalves()) smallerRadiusOddAt(x, y) += other.smallerRadiusOddAt(x, y);
+        });
     invalidSamples += other.invalidSamples;
 }
 
 void FilmBlock::addPassesOfParity(const FilmBlock& samples, bool oddPasses) {
+    if (keepsSmallerRadius() && !samples.keepsSmallerRadius())
+        fail("cannot add samples without the smaller radius's sums into a film that keeps them");
     if (oddPasses && keepsHalves())
         forOverlap(*this, samples, [&](int x, int y) {
             at(x, y) += samples.at(x, y);
@@ -59,6 +82,12 @@ void FilmBlock::addPassesOfParity(const FilmBlock& samples, bool oddPasses) {
         });
     else
         forOverlap(*this, samples, [&](int x, int y) { at(x, y) += samples.at(x, y); });
+    if (keepsSmallerRadius())
+        forOverlap(*this, samples, [&](int x, int y) {
+            smallerRadiusAt(x, y) += samples.smallerRadiusAt(x, y);
+            if (oddPasses && keepsHalves())
+                smallerRadiusOddAt(x, y) += samples.smallerRadiusAt(x, y);
+        });
     invalidSamples += samples.invalidSamples;
 }
 
@@ -66,10 +95,13 @@ static_assert(sizeof(PixelSum) == 64, "PixelSum must be four packed 128-bit inte
 
 std::string FilmBlock::serialize() const {
     // x86-64 and aarch64 are little-endian; the bytes are the in-memory integers.
-    const size_t half = m_pixels.size() * sizeof(PixelSum);
-    std::string bytes(half + m_odd.size() * sizeof(PixelSum), '\0');
-    if (!m_pixels.empty()) std::memcpy(bytes.data(), m_pixels.data(), half);
-    if (!m_odd.empty()) std::memcpy(bytes.data() + half, m_odd.data(), bytes.size() - half);
+    std::string bytes(m_pixels.size() * bytesPerPixel(), '\0');
+    size_t offset = 0;
+    for (const std::vector<PixelSum>* sums : {&m_pixels, &m_odd, &m_smaller, &m_smallerOdd}) {
+        if (sums->empty()) continue;
+        std::memcpy(bytes.data() + offset, sums->data(), sums->size() * sizeof(PixelSum));
+        offset += sums->size() * sizeof(PixelSum);
+    }
     return bytes;
 }
 
@@ -81,11 +113,21 @@ void FilmBlock::deserialize(const std::string& bytes) {
                 "film data has no pass halves (written by an older Alphorn): a %dx%d block "
                 "needs %zu bytes with its odd passes' sums, got %zu",
                 m_width, m_height, m_pixels.size() * bytesPerPixel(), bytes.size());
+        if (keepsSmallerRadius() && bytes.size() * 2 == m_pixels.size() * bytesPerPixel() &&
+            half != 0)
+            fail(
+                "film data has no smaller radius's sums (written by an older Alphorn): a %dx%d "
+                "block of a progressive photon mapper needs %zu bytes, got %zu",
+                m_width, m_height, m_pixels.size() * bytesPerPixel(), bytes.size());
         fail("film data has %zu bytes, expected %zu for a %dx%d block", bytes.size(),
              m_pixels.size() * bytesPerPixel(), m_width, m_height);
     }
-    if (!m_pixels.empty()) std::memcpy(m_pixels.data(), bytes.data(), half);
-    if (!m_odd.empty()) std::memcpy(m_odd.data(), bytes.data() + half, bytes.size() - half);
+    size_t offset = 0;
+    for (std::vector<PixelSum>* sums : {&m_pixels, &m_odd, &m_smaller, &m_smallerOdd}) {
+        if (sums->empty()) continue;
+        std::memcpy(sums->data(), bytes.data() + offset, sums->size() * sizeof(PixelSum));
+        offset += sums->size() * sizeof(PixelSum);
+    }
 }
 
 Image resolveImage(const FilmBlock& film, int width, int height) {
@@ -105,8 +147,13 @@ Image resolveImage(const FilmBlock& film, int width, int height) {
     return image;
 }
 
-void splatFiltered(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
-                   const Color3f& value, SampleWeight weight) {
+namespace {
+
+// Calls addTap(x, y, w) for every pixel of the block within the filter's reach with a nonzero
+// weight w.
+template <typename AddTap>
+void forEachTap(const FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
+                AddTap&& addTap) {
     const float radius = filter.radius();
     const float px = position.x() - 0.5f, py = position.y() - 0.5f;
     const int xBegin = static_cast<int>(std::ceil(px - radius));
@@ -123,11 +170,38 @@ void splatFiltered(FilmBlock& block, const ReconstructionFilter& filter, const P
             const int x = xBegin + i;
             const float w = wx[i] * wy;
             if (w == 0.0f || !block.contains(x, y)) continue;
-            PixelSum& sum = block.at(x, y);
-            for (int c = 0; c < 3; ++c) sum.rgb[c] += toFixedPoint(double(w) * double(value[c]));
-            if (weight == SampleWeight::Counted) sum.weight += toFixedPoint(w);
+            addTap(x, y, w);
         }
     }
+}
+
+void addTap(PixelSum& sum, float w, const Color3f& value, SampleWeight weight) {
+    for (int c = 0; c < 3; ++c) sum.rgb[c] += toFixedPoint(double(w) * double(value[c]));
+    if (weight == SampleWeight::Counted) sum.weight += toFixedPoint(w);
+}
+
+}  // namespace
+
+void splatFiltered(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
+                   const Color3f& value, SampleWeight weight) {
+    forEachTap(block, filter, position,
+               [&](int x, int y, float w) { addTap(block.at(x, y), w, value, weight); });
+}
+
+void splatFilteredSmallerRadius(FilmBlock& block, const ReconstructionFilter& filter,
+                                const Point2f& position, const Color3f& value) {
+    forEachTap(block, filter, position, [&](int x, int y, float w) {
+        addTap(block.smallerRadiusAt(x, y), w, value, SampleWeight::Counted);
+    });
+}
+
+void splatFilteredTwoRadii(FilmBlock& block, const ReconstructionFilter& filter,
+                           const Point2f& position, const Color3f& value,
+                           const Color3f& smallerRadiusValue) {
+    forEachTap(block, filter, position, [&](int x, int y, float w) {
+        addTap(block.at(x, y), w, value, SampleWeight::Counted);
+        addTap(block.smallerRadiusAt(x, y), w, smallerRadiusValue, SampleWeight::Counted);
+    });
 }
 
 }  // namespace alphorn

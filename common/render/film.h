@@ -10,6 +10,9 @@
 // Beside the sums of all passes a film keeps the sums of its odd passes (passes 1, 3, 5, ...),
 // also exact; the even passes' sums are the difference. The two halves are independent
 // renders of the same image, and their difference measures its noise (error_estimate.h).
+// A film of a progressive photon mapper may also keep the same sums for the image gathered at
+// the smaller radius r_i / sqrt(2) of every pass, totals and odd half: the difference of the two
+// radii's images measures the radius's bias (estimateRelativeBiasTwoRadii).
 #pragma once
 
 #include "common/core/color.h"
@@ -64,13 +67,18 @@ inline double fromFixedPoint(FixedPoint value) {
 // passes of one parity only (a thread's scratch film) need not; a checkpoint written before the
 // halves existed has none (its film has no error estimate).
 enum class PassHalves : uint8_t { Kept, None };
+// Whether a block keeps the sums of the image at the smaller gather radius (totals, and their
+// odd half when the halves are kept). Only films of integrators that return that image
+// (Integrator::estimatesBiasWithTwoRadii) keep them; every other film keeps its size and bytes.
+enum class SmallerRadius : uint8_t { None, Kept };
 
 // A rectangle of pixel sums: [x0, x0 + width) x [y0, y0 + height) in image pixels. The
 // rectangle may reach outside the image (a tile plus its filter border).
 class FilmBlock {
   public:
     FilmBlock() = default;
-    FilmBlock(int x0, int y0, int width, int height, PassHalves halves = PassHalves::Kept);
+    FilmBlock(int x0, int y0, int width, int height, PassHalves halves = PassHalves::Kept,
+              SmallerRadius smallerRadius = SmallerRadius::None);
 
     int x0() const { return m_x0; }
     int y0() const { return m_y0; }
@@ -78,6 +86,7 @@ class FilmBlock {
     int height() const { return m_height; }
 
     bool keepsHalves() const { return m_halves == PassHalves::Kept; }
+    bool keepsSmallerRadius() const { return m_smallerRadius == SmallerRadius::Kept; }
 
     // The sums of all passes.
     PixelSum& at(int x, int y) { return m_pixels[index(x, y)]; }
@@ -86,23 +95,35 @@ class FilmBlock {
     // at() minus these.
     PixelSum& oddAt(int x, int y) { return m_odd[index(x, y)]; }
     const PixelSum& oddAt(int x, int y) const { return m_odd[index(x, y)]; }
+    // The smaller radius's sums of all passes and of the odd passes (keepsSmallerRadius() must
+    // hold, and keepsHalves() for the odd half).
+    PixelSum& smallerRadiusAt(int x, int y) { return m_smaller[index(x, y)]; }
+    const PixelSum& smallerRadiusAt(int x, int y) const { return m_smaller[index(x, y)]; }
+    PixelSum& smallerRadiusOddAt(int x, int y) { return m_smallerOdd[index(x, y)]; }
+    const PixelSum& smallerRadiusOddAt(int x, int y) const { return m_smallerOdd[index(x, y)]; }
+    // The smaller radius's sums as a film of their own (totals and odd half), for the estimates
+    // that compare two films (keepsSmallerRadius() must hold).
+    FilmBlock smallerRadiusFilm() const;
     bool contains(int x, int y) const {
         return x >= m_x0 && y >= m_y0 && x < m_x0 + m_width && y < m_y0 + m_height;
     }
 
     // Adds the overlapping part of another block (exact, so any order gives the same sums).
-    // Throws Error when this block keeps halves and the other does not: its samples could not
-    // be split by pass parity.
+    // Throws Error when this block keeps halves or the smaller radius and the other does not:
+    // its samples could not be split by pass parity, or have no smaller radius's image.
     void add(const FilmBlock& other);
     // Adds the overlapping part of a block holding samples of passes of one parity only: odd
     // passes count in both the totals and the odd half, even passes in the totals only.
     void addPassesOfParity(const FilmBlock& samples, bool oddPasses);
     void clear();
 
-    // Bytes per pixel of serialize(): the totals, and the odd half when kept.
-    size_t bytesPerPixel() const { return sizeof(PixelSum) * (keepsHalves() ? 2 : 1); }
-    // Raw little-endian bytes of the sums (all totals, then the odd half when kept), for
-    // checkpoints and the wire.
+    // Bytes per pixel of serialize(): the totals, the odd half when kept, and the smaller
+    // radius's totals and odd half when kept.
+    size_t bytesPerPixel() const {
+        return sizeof(PixelSum) * (keepsHalves() ? 2 : 1) * (keepsSmallerRadius() ? 2 : 1);
+    }
+    // Raw little-endian bytes of the sums (all totals, then the odd half when kept, then the
+    // smaller radius's totals and odd half when kept), for checkpoints and the wire.
     std::string serialize() const;
     // Throws Error when the bytes do not describe a block of this shape and halves.
     void deserialize(const std::string& bytes);
@@ -115,8 +136,11 @@ class FilmBlock {
 
     int m_x0 = 0, m_y0 = 0, m_width = 0, m_height = 0;
     PassHalves m_halves = PassHalves::Kept;
+    SmallerRadius m_smallerRadius = SmallerRadius::None;
     std::vector<PixelSum> m_pixels;
-    std::vector<PixelSum> m_odd;  // empty unless the halves are kept
+    std::vector<PixelSum> m_odd;         // empty unless the halves are kept
+    std::vector<PixelSum> m_smaller;     // empty unless the smaller radius is kept
+    std::vector<PixelSum> m_smallerOdd;  // empty unless both are kept
 };
 
 class ReconstructionFilter;
@@ -131,6 +155,14 @@ enum class SampleWeight { Counted, NotCounted };
 // point. The caller rejects invalid values (NaN, infinite, beyond kFixedPointLimit) first.
 void splatFiltered(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
                    const Color3f& value, SampleWeight weight);
+// The same into the smaller radius's sums (keepsSmallerRadius() must hold).
+void splatFilteredSmallerRadius(FilmBlock& block, const ReconstructionFilter& filter,
+                                const Point2f& position, const Color3f& value);
+// A camera sample into both: splatFiltered(value, Counted) and splatFilteredSmallerRadius(
+// smallerRadiusValue), the filter evaluated once.
+void splatFilteredTwoRadii(FilmBlock& block, const ReconstructionFilter& filter,
+                           const Point2f& position, const Color3f& value,
+                           const Color3f& smallerRadiusValue);
 
 // Resolves sums into an image: each pixel is sum(w L) / sum(w), computed in double from the
 // exact integers and rounded once to float. Pixels with no weight are black.

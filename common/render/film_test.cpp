@@ -135,5 +135,55 @@ TEST(FixedPoint, RoundsLikeNearbyintBelowAndAbove2To52) {
     }
 }
 
+// The smaller radius's sums: kept beside the image's, merged, split by parity and serialised
+// (image totals, odd half, then the smaller radius's totals and odd half), and refused where a
+// film keeps them and the other does not.
+TEST(FilmBlock, SmallerRadiusSumsAreMergedAndSerialised) {
+    FilmBlock film(0, 0, 2, 1, PassHalves::Kept, SmallerRadius::Kept);
+    FilmBlock odd(0, 0, 2, 1, PassHalves::None, SmallerRadius::Kept);
+    odd.at(1, 0).weight = toFixedPoint(1.0);
+    odd.smallerRadiusAt(1, 0).weight = toFixedPoint(2.0);
+    FilmBlock even(0, 0, 2, 1, PassHalves::None, SmallerRadius::Kept);
+    even.smallerRadiusAt(1, 0).weight = toFixedPoint(3.0);
+    film.addPassesOfParity(odd, true);
+    film.addPassesOfParity(even, false);
+    EXPECT_EQ(film.at(1, 0).weight, toFixedPoint(1.0));
+    EXPECT_EQ(film.smallerRadiusAt(1, 0).weight, toFixedPoint(5.0));
+    EXPECT_EQ(film.smallerRadiusOddAt(1, 0).weight, toFixedPoint(2.0));
+    FilmBlock sum(0, 0, 2, 1, PassHalves::Kept, SmallerRadius::Kept);
+    sum.add(film);
+    sum.add(film);
+    EXPECT_EQ(sum.smallerRadiusAt(1, 0).weight, toFixedPoint(10.0));
+    EXPECT_EQ(sum.smallerRadiusOddAt(1, 0).weight, toFixedPoint(4.0));
+    EXPECT_EQ(film.bytesPerPixel(), 4 * sizeof(PixelSum));
+    const std::string bytes = film.serialize();
+    ASSERT_EQ(bytes.size(), 2 * 4 * sizeof(PixelSum));
+    FilmBlock back(0, 0, 2, 1, PassHalves::Kept, SmallerRadius::Kept);
+    back.deserialize(bytes);
+    EXPECT_EQ(back.serialize(), bytes);
+    EXPECT_EQ(back.smallerRadiusOddAt(1, 0).weight, toFixedPoint(2.0));
+    const FilmBlock smaller = film.smallerRadiusFilm();
+    EXPECT_EQ(smaller.at(1, 0).weight, toFixedPoint(5.0));
+    EXPECT_EQ(smaller.oddAt(1, 0).weight, toFixedPoint(2.0));
+    // The image part of the bytes is what a film without the smaller radius serialises.
+    FilmBlock imageOnly(0, 0, 2, 1);
+    imageOnly.add(film);
+    EXPECT_EQ(bytes.substr(0, imageOnly.serialize().size()), imageOnly.serialize());
+    EXPECT_THROW(film.add(imageOnly), Error);
+    EXPECT_THROW(film.addPassesOfParity(FilmBlock(0, 0, 2, 1, PassHalves::None), true), Error);
+}
+
+// Data without the smaller radius's sums where they are expected is named as such.
+TEST(FilmBlock, DataWithoutTheSmallerRadiusIsNamed) {
+    FilmBlock old(0, 0, 3, 2);
+    FilmBlock current(0, 0, 3, 2, PassHalves::Kept, SmallerRadius::Kept);
+    try {
+        current.deserialize(old.serialize());
+        FAIL() << "film data without the smaller radius was accepted";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("no smaller radius"), std::string::npos) << e.what();
+    }
+}
+
 }  // namespace
 }  // namespace alphorn

@@ -14,7 +14,7 @@ FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
                       const ProgressCallback& progress, RenderCounters* externalCounters,
                       RenderStatus* finalStatus) {
     const Vector2i size = scene.camera()->outputSize();
-    FilmBlock film(0, 0, size.x(), size.y());
+    FilmBlock film(0, 0, size.x(), size.y(), PassHalves::Kept, filmSmallerRadius(scene));
     // The farm's grid (farm::JobGrid cuts a job along the same one).
     const TileGrid grid(scene, settings.tileSize);
     // A crop needs the tiles whose samples reach it, whole: a tile's pixels are sampled the same

@@ -26,17 +26,23 @@ Tile grownTile(const Tile& tile, int border) {
     return Tile{tile.x0 - border, tile.y0 - border, tile.x1 + border, tile.y1 + border};
 }
 
-FilmBlock unitBlock(const Tile& tile, int border) {
+FilmBlock unitBlock(const Tile& tile, int border, SmallerRadius smallerRadius) {
     const Tile grown = grownTile(tile, border);
-    return FilmBlock(grown.x0, grown.y0, grown.width(), grown.height());
+    return FilmBlock(grown.x0, grown.y0, grown.width(), grown.height(), PassHalves::Kept,
+                     smallerRadius);
+}
+
+SmallerRadius filmSmallerRadius(const Scene& scene) {
+    return scene.integrator()->estimatesBiasWithTwoRadii() ? SmallerRadius::Kept
+                                                           : SmallerRadius::None;
 }
 
 FilmBlock makeUnitBlock(const Scene& scene, const Tile& tile) {
-    return unitBlock(tile, filterBorder(scene));
+    return unitBlock(tile, filterBorder(scene), filmSmallerRadius(scene));
 }
 
-TileGrid::TileGrid(int width, int height, int tileSize, int border)
-    : m_width(width), m_height(height), m_border(border) {
+TileGrid::TileGrid(int width, int height, int tileSize, int border, SmallerRadius smallerRadius)
+    : m_width(width), m_height(height), m_border(border), m_smallerRadius(smallerRadius) {
     if (width <= 0 || height <= 0) fail("image size must be positive, got %dx%d", width, height);
     if (border < 0) fail("the filter border must not be negative, got %d", border);
     m_tiles = makeTiles(width, height, tileSize);
@@ -44,7 +50,7 @@ TileGrid::TileGrid(int width, int height, int tileSize, int border)
 
 TileGrid::TileGrid(const Scene& scene, int tileSize)
     : TileGrid(scene.camera()->outputSize().x(), scene.camera()->outputSize().y(), tileSize,
-               filterBorder(scene)) {}
+               filterBorder(scene), filmSmallerRadius(scene)) {}
 
 std::vector<Tile> TileGrid::tilesReaching(const Tile& region) const {
     std::vector<Tile> reaching;
@@ -68,14 +74,35 @@ std::vector<std::shared_ptr<const PassData>> preparePasses(const Scene& scene, u
 
 namespace {
 
+bool isValidSample(const Color3f& value) {
+    return value.isValid() && !(value.maxCoeff() > kFixedPointLimit);
+}
+
 // A camera sample into the block; rejected samples are counted, never clamped.
 void splat(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
            const Color3f& value) {
-    if (!value.isValid() || value.maxCoeff() > kFixedPointLimit) {
+    if (!isValidSample(value)) {
         ++block.invalidSamples;
         return;
     }
     splatFiltered(block, filter, position, value, SampleWeight::Counted);
+}
+
+// A camera sample at both radii. The pass radius's sums are exactly splat()'s; a sample invalid
+// at the smaller radius only is left out of its sums (they carry their own weights) and not
+// counted: invalidSamples counts the image's samples.
+void splatTwoRadii(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
+                   const TwoRadiiRadiance& value) {
+    const bool smallerValid = isValidSample(value.atSmallerRadius);
+    if (!isValidSample(value.atPassRadius)) {
+        ++block.invalidSamples;
+        if (smallerValid)
+            splatFilteredSmallerRadius(block, filter, position, value.atSmallerRadius);
+    } else if (smallerValid) {
+        splatFilteredTwoRadii(block, filter, position, value.atPassRadius, value.atSmallerRadius);
+    } else {
+        splatFiltered(block, filter, position, value.atPassRadius, SampleWeight::Counted);
+    }
 }
 
 }  // namespace
@@ -93,6 +120,12 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
     if (passData.size() != passes)
         fail("renderUnit: pass data for %zu passes, expected %zu", passData.size(), passes);
     std::atomic<bool> cancelled{false};
+    // The smaller radius's image only when `out` keeps it: a film without it (an older
+    // coordinator's unit) gets exactly the samples it always got.
+    const bool twoRadii = out.keepsSmallerRadius();
+    if (twoRadii && !integrator.estimatesBiasWithTwoRadii())
+        fail("renderUnit: the film keeps a smaller radius's image this integrator does not make");
+    const SmallerRadius scratchSmallerRadius = twoRadii ? SmallerRadius::Kept : SmallerRadius::None;
 
     // Work items are (pass, row) pairs. Each thread renders into blocks of its own, made once
     // per unit (a block per task cost a sixth of a Cornell box render in allocation and adding),
@@ -106,8 +139,9 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
     tbb::enumerable_thread_specific<ThreadFilm> threadFilms([&] {
         const bool bothParities = passes > 1;
         const auto block = [&](bool used) {
-            return used ? FilmBlock(out.x0(), out.y0(), out.width(), out.height(), PassHalves::None)
-                        : FilmBlock();
+            return used ? FilmBlock(out.x0(), out.y0(), out.width(), out.height(), PassHalves::None,
+                                    scratchSmallerRadius)
+                        : FilmBlock(0, 0, 0, 0, PassHalves::None, scratchSmallerRadius);
         };
         const bool firstIsOdd = unit.passBegin % 2 == 1;
         return ThreadFilm{{block(bothParities || !firstIsOdd), block(bothParities || firstIsOdd)},
@@ -136,6 +170,17 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
                     const Point2f apertureSample = sampler->next2D();
                     Ray3f ray;
                     Color3f value = camera.sampleRay(ray, pixelSample, apertureSample);
+                    if (twoRadii) {
+                        TwoRadiiRadiance radiance{value, value};
+                        if (!value.isBlack()) {
+                            const TwoRadiiRadiance li =
+                                integrator.LiTwoRadii(scene, *sampler, ray, data);
+                            radiance.atPassRadius *= li.atPassRadius;
+                            radiance.atSmallerRadius *= li.atSmallerRadius;
+                        }
+                        splatTwoRadii(local, filter, pixelSample, radiance);
+                        continue;
+                    }
                     if (!value.isBlack()) value *= integrator.Li(scene, *sampler, ray, data);
                     splat(local, filter, pixelSample, value);
                 }
@@ -152,6 +197,7 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
     // Light paths splat onto the whole image (bidirectional integrators): each unit adds the
     // part on its own tile, into the half of each pass's parity.
     if (!cancelled && integrator.hasPassSplats()) {
+        if (twoRadii) fail("renderUnit: pass splats have no smaller radius's image");
         FilmBlock splats[2] = {
             FilmBlock(out.x0(), out.y0(), out.width(), out.height(), PassHalves::None),
             FilmBlock(out.x0(), out.y0(), out.width(), out.height(), PassHalves::None)};

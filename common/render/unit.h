@@ -33,10 +33,15 @@ std::vector<Tile> makeTiles(int width, int height, int tileSize);
 int filterBorder(const Scene& scene);
 // The tile grown by `border` pixels on each side: the pixels a unit over `tile` can write.
 Tile grownTile(const Tile& tile, int border);
-// The film block of a unit whose tile is `tile`: over grownTile(tile, border).
+// The film block of a unit whose tile is `tile`: over grownTile(tile, border), with the pass
+// halves and, when asked, the smaller radius's image.
 // The coordinator, which keeps a job's border rather than its scene, checks results against it.
-FilmBlock unitBlock(const Tile& tile, int border);
-// The film block a unit writes: unitBlock(tile, filterBorder(scene)).
+FilmBlock unitBlock(const Tile& tile, int border,
+                    SmallerRadius smallerRadius = SmallerRadius::None);
+// Whether the scene's films keep the smaller radius's image: when its integrator makes one
+// (Integrator::estimatesBiasWithTwoRadii).
+SmallerRadius filmSmallerRadius(const Scene& scene);
+// The film block a unit writes: unitBlock(tile, filterBorder(scene), filmSmallerRadius(scene)).
 FilmBlock makeUnitBlock(const Scene& scene, const Tile& tile);
 
 // The tiles an image is rendered in, the same for a local render (renderLocal) and a farm job
@@ -46,22 +51,26 @@ class TileGrid {
   public:
     TileGrid() = default;
     // Throws Error on a non-positive image or tile size and on a negative border.
-    TileGrid(int width, int height, int tileSize, int border);
-    // The grid of the scene's image, with its reconstruction filter's border (filterBorder).
+    TileGrid(int width, int height, int tileSize, int border,
+             SmallerRadius smallerRadius = SmallerRadius::None);
+    // The grid of the scene's image, with its reconstruction filter's border (filterBorder),
+    // its blocks keeping the smaller radius's image when the scene's do (filmSmallerRadius).
     TileGrid(const Scene& scene, int tileSize);
 
     int width() const { return m_width; }
     int height() const { return m_height; }
     int border() const { return m_border; }
+    SmallerRadius smallerRadius() const { return m_smallerRadius; }
     const std::vector<Tile>& tiles() const { return m_tiles; }
     // The film block a unit over `tile` writes: unitBlock(tile, border()).
-    FilmBlock block(const Tile& tile) const { return unitBlock(tile, m_border); }
+    FilmBlock block(const Tile& tile) const { return unitBlock(tile, m_border, m_smallerRadius); }
     // The tiles whose blocks overlap `region`: every tile a sample of which can reach a pixel of
     // it, in grid order.
     std::vector<Tile> tilesReaching(const Tile& region) const;
 
   private:
     int m_width = 0, m_height = 0, m_border = 0;
+    SmallerRadius m_smallerRadius = SmallerRadius::None;
     std::vector<Tile> m_tiles;
 };
 

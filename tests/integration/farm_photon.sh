@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Issue 4: a progressive photon-mapping job on two workers, split into units of (pass range x
 # tile), gives an EXR byte-identical to `alphorn render` -- also when one worker is killed
-# midway and its unit is rendered again, photon passes included, by the other.
+# midway and its unit is rendered again, photon passes included, by the other. With a target
+# error the film keeps the smaller radius's image: the bias is estimated and shown, and the farm
+# stops at the same pass with the same bytes as `alphorn render` at any threads and tile size.
 source "$(dirname "$0")/farm_lib.sh"
 
 start_coordinator 127.0.0.1:0 --lease-seconds 1
@@ -42,4 +44,23 @@ pass "killed worker a (pid $victim) with $(job_field "$job" units_done) of $(job
 "$ALPHORN" fetch "$job" -o "$WORK/farm_kill.exr" 2>/dev/null || fail "fetch failed"
 cmp "$WORK/local.exr" "$WORK/farm_kill.exr" || fail "the EXR differs after a worker was killed"
 pass "progressive photon mapping: EXR byte-identical after kill -9 of a worker"
+
+target=(--seed 9 --target-error 0.5 --max-passes 64)
+: >"$WORK/local.log"
+render_local "$SCENES/farm_photon.xml" "$WORK/target.exr" "${target[@]}" --threads 1
+cp "$WORK/local.log" "$WORK/target.log"
+render_local "$SCENES/farm_photon.xml" "$WORK/target_tiles.exr" "${target[@]}" --threads 2 --tile 16
+cmp "$WORK/target.exr" "$WORK/target_tiles.exr" || fail "threads/tile changed the stopped photon image"
+grep -q "radius's bias" "$WORK/target.log" || fail "alphorn render does not show the radius's bias"
+stop=$(grep -o "wrote .* (\([0-9]*\) passes" "$WORK/target.log" | head -n1 | grep -o "([0-9]*" | tr -d '(')
+[[ -n $stop && $stop -gt 4 && $stop -lt 64 ]] || fail "the photon target should stop between 4 and 64 passes, stopped at '$stop'"
+job=$("$ALPHORN" submit "$SCENES/farm_photon.xml" "${target[@]}" --tile 32 2>/dev/null)
+"$ALPHORN" watch "$job" >/dev/null 2>&1 || fail "the target-error photon job did not finish"
+"$ALPHORN" fetch "$job" -o "$WORK/farm_target.exr" 2>/dev/null || fail "fetch failed"
+cmp "$WORK/target.exr" "$WORK/farm_target.exr" || fail "the farm's stopped photon EXR differs from alphorn render"
+[[ $(job_field "$job" passes_done) == "$stop" ]] || fail "the farm stopped at $(job_field "$job" passes_done) passes, not $stop"
+bias=$(job_field "$job" error_bias)
+[[ -n $bias ]] && awk -v b="$bias" 'BEGIN { exit !(b > 0) }' || fail "status --json has no positive error_bias ('$bias')"
+"$ALPHORN" status "$job" | grep -q "bias" || fail "'alphorn status' does not show the bias"
+pass "photon target: stops at $stop passes with the same bytes locally (threads 1/2, tiles 64/16) and on the farm; bias $bias shown"
 echo "PASS"

@@ -549,6 +549,8 @@ v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId,
             response.set_lease_id(lease->leaseId);
             *response.mutable_unit() =
                 farm::toProto(job.id, lease->unitIndex, job.grid.unit(lease->unitIndex));
+            response.mutable_unit()->set_smaller_radius(job.grid.tiles().smallerRadius() ==
+                                                        SmallerRadius::Kept);
             *response.mutable_job() = job.description;
             response.set_lease_seconds(m_options.leaseSeconds);
             response.set_lease_token(lease->token);

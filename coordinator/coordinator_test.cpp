@@ -14,6 +14,7 @@
 #include "coordinator/coordinator_job_test.h"
 
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 #include <sys/resource.h>
 
 #include <csignal>
@@ -518,6 +519,74 @@ TEST_F(CoordinatorJob, JobsBeyondTheMemoryBudgetAreRefused) {
     coordinator.cancel(first);  // ending a job gives its memory back
     EXPECT_THROW(coordinator.submit(small), FarmError);
     EXPECT_NO_THROW(coordinator.submit(request));
+}
+
+// A job keeps the film layout it was admitted with, and the lease tells the worker which: a
+// progressive photon job admitted by a coordinator that kept no smaller radius's image (an older
+// version: its row says 0) is leased, rendered and merged without one after an upgrade, instead
+// of having every result refused for its size.
+TEST_F(CoordinatorJob, AJobKeepsTheFilmLayoutItWasAdmittedWith) {
+    std::ofstream(m_dir / "scene/s.xml") << R"(<scene>
+  <integrator type="photonmapper">
+    <integer name="photonCount" value="500"/>
+    <float name="surfacePhotonRadius" value="0.5"/>
+    <boolean name="progressive" value="true"/>
+  </integrator>
+  <camera type="perspective">
+    <transform name="toWorld"><lookat origin="3, 2, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <integer name="width" value="40"/><integer name="height" value="30"/>
+  </camera>
+  <mesh type="obj"><string name="filename" value="sphere.obj"/></mesh>
+  <emitter type="point">
+    <point name="position" value="0, 3, 0"/><color name="power" value="50, 50, 50"/>
+  </emitter>
+</scene>)";
+    uint64_t jobId = 0;
+    {
+        Coordinator coordinator(m_options);
+        jobId = coordinator.submit(upload(coordinator, 2)).job_id();
+        const v1::AcquireWorkResponse lease = coordinator.acquire(
+            coordinator.registerWorker(v1::RegisterRequest()), std::chrono::steady_clock::now());
+        ASSERT_TRUE(lease.has_work());
+        EXPECT_TRUE(lease.unit().smaller_radius()) << "a progressive photon job keeps it";
+        coordinator.stop();
+    }
+    // What an older coordinator stored for the same job.
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open((m_dir / "state/state.sqlite").c_str(), &db), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(db, "UPDATE jobs SET smaller_radius = 0", nullptr, nullptr, nullptr),
+              SQLITE_OK);
+    sqlite3_close(db);
+    Coordinator coordinator(m_options);
+    const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+    auto scene = loadScene((m_dir / "scene/s.xml").string());
+    for (;;) {
+        const v1::AcquireWorkResponse lease =
+            coordinator.acquire(worker, std::chrono::steady_clock::now());
+        if (!lease.has_work()) break;
+        EXPECT_FALSE(lease.unit().smaller_radius());
+        // As the worker renders it: the block's layout from the lease.
+        const RenderUnit unit = farm::fromProto(lease.unit());
+        FilmBlock block =
+            unitBlock(unit.tile, filterBorder(*scene),
+                      lease.unit().smaller_radius() ? SmallerRadius::Kept : SmallerRadius::None);
+        renderUnit(*scene, 5, unit, preparePasses(*scene, 5, unit.passBegin, unit.passEnd), block);
+        const std::string compressed = farm::compressFilm(block);
+        v1::ResultChunk header;
+        header.set_worker_id(worker);
+        header.set_lease_id(lease.lease_id());
+        header.set_job_id(jobId);
+        header.set_unit_index(lease.unit().unit_index());
+        header.set_block_x0(block.x0());
+        header.set_block_y0(block.y0());
+        header.set_block_width(block.width());
+        header.set_block_height(block.height());
+        header.set_compressed_size(compressed.size());
+        header.set_compressed_sha256(farm::sha256Hex(compressed));
+        ASSERT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
+    }
+    EXPECT_EQ(coordinator.listJobs(jobId).at(0).state(), v1::JOB_STATE_DONE);
+    coordinator.stop();
 }
 
 // A preview copies the job's film in bands of rows (about 1 MiB each), one lock hold per band:

@@ -324,7 +324,11 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
         bool built = false;
         const auto& passData = passDataFor(job, unit.passBegin, unit.passEnd, built);
         header.set_built_pass_data(built);
-        FilmBlock block = makeUnitBlock(*job.scene, unit.tile);
+        // The block's layout is the job's (the lease says), not what this build would choose
+        // for the scene.
+        FilmBlock block =
+            unitBlock(unit.tile, filterBorder(*job.scene),
+                      lease.unit().smaller_radius() ? SmallerRadius::Kept : SmallerRadius::None);
         const auto start = std::chrono::steady_clock::now();
         RenderCounters counters;
         const bool complete =

@@ -32,18 +32,25 @@ class CoordinatorJobTest : public ::testing::Test {
         fs::create_directories(m_dir / "scene");
         fs::copy_file(fs::path(ALPHORN_SOURCE_DIR) / "scenes/meshes/sphere.obj",
                       m_dir / "scene/sphere.obj");
-        std::ofstream(m_dir / "scene/s.xml") << R"(<scene>
-  <integrator type="normals"/>
-  <camera type="perspective">
-    <transform name="toWorld"><lookat origin="3, 2, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <integer name="width" value="40"/><integer name="height" value="30"/>
-  </camera>
-  <mesh type="obj"><string name="filename" value="sphere.obj"/></mesh>
-</scene>)";
+        writeScene(R"(<integrator type="normals"/>)");
         m_options.stateDirectory = (m_dir / "state").string();
         m_options.leaseSeconds = 60;
     }
     void TearDown() override { fs::remove_all(m_dir); }
+
+    // Writes the job's scene: the sphere seen from the same camera at `width` x `height` pixels,
+    // rendered by `integrator` (its XML element), with `extra` elements (e.g. an emitter).
+    void writeScene(const std::string& integrator, int width = 40, int height = 30,
+                    const std::string& extra = "") {
+        std::ofstream(m_dir / "scene/s.xml") << "<scene>\n  " << integrator << R"(
+  <camera type="perspective">
+    <transform name="toWorld"><lookat origin="3, 2, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <integer name="width" value=")" << width << R"("/><integer name="height" value=")"
+                                             << height << R"("/>
+  </camera>
+  <mesh type="obj"><string name="filename" value="sphere.obj"/></mesh>
+  )" << extra << "\n</scene>\n";
+    }
 
     // Stores the scene's files in the coordinator's blob store, as `alphorn submit` uploads
     // them, and returns the request that submits it (`passes` passes of one pass per unit).
@@ -63,12 +70,14 @@ class CoordinatorJobTest : public ::testing::Test {
         return request;
     }
 
-    // Renders a leased unit the way a worker does.
+    // Renders a leased unit the way a worker does: the block's layout from the lease.
     v1::ResultChunk render(const v1::AcquireWorkResponse& lease, uint64_t workerId,
                            std::string& compressed) {
         auto scene = loadScene((m_dir / "scene/s.xml").string());
         const RenderUnit unit = farm::fromProto(lease.unit());
-        FilmBlock block = makeUnitBlock(*scene, unit.tile);
+        FilmBlock block =
+            unitBlock(unit.tile, filterBorder(*scene),
+                      lease.unit().smaller_radius() ? SmallerRadius::Kept : SmallerRadius::None);
         renderUnit(*scene, 5, unit, preparePasses(*scene, 5, unit.passBegin, unit.passEnd), block);
         compressed = farm::compressFilm(block);
         v1::ResultChunk header;

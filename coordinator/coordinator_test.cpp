@@ -214,22 +214,16 @@ TEST_F(CoordinatorJob, ReverseOrderDuplicatesAndRestartGiveTheLocalFilm) {
 // The expected radii follow the Knaus-Zwicker recurrence r²(N + 1) = r²(N) (N + α) / (N + 1),
 // not the closed form the coordinator uses.
 TEST_F(CoordinatorJob, ReportsThePhotonRadiusOfTheLastCompletePass) {
-    std::ofstream(m_dir / "scene/s.xml") << R"(<scene>
-  <integrator type="photonmapper">
+    writeScene(R"(<integrator type="photonmapper">
     <integer name="photonCount" value="200"/>
     <float name="surfacePhotonRadius" value="0.25"/>
     <boolean name="progressive" value="true"/>
     <float name="alpha" value="0.7"/>
-  </integrator>
-  <camera type="perspective">
-    <transform name="toWorld"><lookat origin="3, 2, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <integer name="width" value="40"/><integer name="height" value="30"/>
-  </camera>
-  <mesh type="obj"><string name="filename" value="sphere.obj"/></mesh>
-  <emitter type="point">
+  </integrator>)",
+               40, 30,
+               R"(<emitter type="point">
     <point name="position" value="0, 3, 0"/><color name="power" value="10, 10, 10"/>
-  </emitter>
-</scene>)";
+  </emitter>)");
     const double alpha = 0.7f;  // the scene's float, as the integrator holds it
     std::vector<double> expected{0.25};
     for (int n = 1; n < 3; ++n)
@@ -526,21 +520,15 @@ TEST_F(CoordinatorJob, JobsBeyondTheMemoryBudgetAreRefused) {
 // version: its row says 0) is leased, rendered and merged without one after an upgrade, instead
 // of having every result refused for its size.
 TEST_F(CoordinatorJob, AJobKeepsTheFilmLayoutItWasAdmittedWith) {
-    std::ofstream(m_dir / "scene/s.xml") << R"(<scene>
-  <integrator type="photonmapper">
+    writeScene(R"(<integrator type="photonmapper">
     <integer name="photonCount" value="500"/>
     <float name="surfacePhotonRadius" value="0.5"/>
     <boolean name="progressive" value="true"/>
-  </integrator>
-  <camera type="perspective">
-    <transform name="toWorld"><lookat origin="3, 2, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <integer name="width" value="40"/><integer name="height" value="30"/>
-  </camera>
-  <mesh type="obj"><string name="filename" value="sphere.obj"/></mesh>
-  <emitter type="point">
+  </integrator>)",
+               40, 30,
+               R"(<emitter type="point">
     <point name="position" value="0, 3, 0"/><color name="power" value="50, 50, 50"/>
-  </emitter>
-</scene>)";
+  </emitter>)");
     uint64_t jobId = 0;
     {
         Coordinator coordinator(m_options);
@@ -559,32 +547,9 @@ TEST_F(CoordinatorJob, AJobKeepsTheFilmLayoutItWasAdmittedWith) {
     sqlite3_close(db);
     Coordinator coordinator(m_options);
     const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
-    auto scene = loadScene((m_dir / "scene/s.xml").string());
-    for (;;) {
-        const v1::AcquireWorkResponse lease =
-            coordinator.acquire(worker, std::chrono::steady_clock::now());
-        if (!lease.has_work()) break;
+    renderAllUnits(coordinator, worker, [](const v1::AcquireWorkResponse& lease) {
         EXPECT_FALSE(lease.unit().smaller_radius());
-        // As the worker renders it: the block's layout from the lease.
-        const RenderUnit unit = farm::fromProto(lease.unit());
-        FilmBlock block =
-            unitBlock(unit.tile, filterBorder(*scene),
-                      lease.unit().smaller_radius() ? SmallerRadius::Kept : SmallerRadius::None);
-        renderUnit(*scene, 5, unit, preparePasses(*scene, 5, unit.passBegin, unit.passEnd), block);
-        const std::string compressed = farm::compressFilm(block);
-        v1::ResultChunk header;
-        header.set_worker_id(worker);
-        header.set_lease_id(lease.lease_id());
-        header.set_job_id(jobId);
-        header.set_unit_index(lease.unit().unit_index());
-        header.set_block_x0(block.x0());
-        header.set_block_y0(block.y0());
-        header.set_block_width(block.width());
-        header.set_block_height(block.height());
-        header.set_compressed_size(compressed.size());
-        header.set_compressed_sha256(farm::sha256Hex(compressed));
-        ASSERT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
-    }
+    });
     EXPECT_EQ(coordinator.listJobs(jobId).at(0).state(), v1::JOB_STATE_DONE);
     coordinator.stop();
 }
@@ -593,14 +558,7 @@ TEST_F(CoordinatorJob, AJobKeepsTheFilmLayoutItWasAdmittedWith) {
 // the copy of a film of several bands must still be the whole film, every row once.
 TEST_F(CoordinatorJob, APreviewOfAFilmOfSeveralBandsIsTheWholeFilm) {
     // 192 x 128 pixels at 128 bytes: 3 MiB, four bands of 42, 42, 42 and 2 rows.
-    std::ofstream(m_dir / "scene/s.xml") << R"(<scene>
-  <integrator type="normals"/>
-  <camera type="perspective">
-    <transform name="toWorld"><lookat origin="3, 2, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <integer name="width" value="192"/><integer name="height" value="128"/>
-  </camera>
-  <mesh type="obj"><string name="filename" value="sphere.obj"/></mesh>
-</scene>)";
+    writeScene(R"(<integrator type="normals"/>)", 192, 128);
     Coordinator coordinator(m_options);
     const v1::JobStatus status = coordinator.submit(upload(coordinator, 2));
     const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());

@@ -128,7 +128,7 @@ class FilmBlock {
     // Throws Error when the bytes do not describe a block of this shape and halves.
     void deserialize(const std::string& bytes);
 
-    // Samples rejected as NaN, infinite or beyond the fixed-point range (never clamped).
+    // Samples rejected as NaN, infinite, negative or beyond the fixed-point range (never clamped).
     uint64_t invalidSamples = 0;
 
   private:

@@ -20,7 +20,9 @@ struct PhotonPassData : PassData {
     // The volumetric photon mapper's volume photons with the beam estimate's index (empty for
     // the surface photon mapper and for scenes without media), normalised by their own count.
     VolumePhotonMap volume;
-    double volumePowerScale = 0.0;  // 1 / photon paths that stored volume photons
+    // 1 / photon paths that fed the volume map (volumePhotonCount: emitted, not only those that
+    // stored a photon)
+    double volumePowerScale = 0.0;
     uint64_t volumeEmitted = 0;
     float volumeRadius = 0.0f;  // the pass's fixed radius, or the kNN radii's upper bound
 };

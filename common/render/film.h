@@ -152,7 +152,8 @@ enum class SampleWeight { Counted, NotCounted };
 
 // Adds a sample at image position `position` to the pixels within the filter's reach (Nori's
 // ImageBlock::put: pixel centres sit at integer + 0.5), each product rounded once to fixed
-// point. The caller rejects invalid values (NaN, infinite, beyond kFixedPointLimit) first.
+// point. The caller rejects invalid values (NaN, infinite, negative, beyond kFixedPointLimit)
+// first.
 void splatFiltered(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
                    const Color3f& value, SampleWeight weight);
 // The same into the smaller radius's sums (keepsSmallerRadius() must hold).

@@ -62,7 +62,7 @@ class TileGrid {
     int border() const { return m_border; }
     SmallerRadius smallerRadius() const { return m_smallerRadius; }
     const std::vector<Tile>& tiles() const { return m_tiles; }
-    // The film block a unit over `tile` writes: unitBlock(tile, border()).
+    // The film block a unit over `tile` writes: unitBlock(tile, border(), smallerRadius()).
     FilmBlock block(const Tile& tile) const { return unitBlock(tile, m_border, m_smallerRadius); }
     // The tiles whose blocks overlap `region`: every tile a sample of which can reach a pixel of
     // it, in grid order.

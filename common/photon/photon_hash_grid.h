@@ -24,8 +24,8 @@ namespace alphorn {
 class PhotonHashGrid {
   public:
     PhotonHashGrid() = default;
-    // Indexes photons[0, count) for queries of radius at most maxRadius (> 0). The array must
-    // outlive the grid.
+    // Indexes photons[0, count) for queries of radius at most maxRadius (> 0). The grid copies
+    // what it needs: the array may go once it is built.
     PhotonHashGrid(const Photon* photons, size_t count, float maxRadius);
 
     size_t size() const { return m_order.size(); }

@@ -6,7 +6,8 @@ namespace alphorn {
 
 PhotonMap::PhotonMap(std::vector<Photon> photons, Lookup lookup, float radius)
     : m_photons(std::move(photons)), m_lookup(lookup) {
-    // The indexes point into m_photons' buffer, which a move of the map keeps in place.
+    // The k-d tree points into m_photons' buffer, which a move of the map keeps in place (the
+    // hash grid keeps its own copy of the photons).
     if (lookup == Lookup::Radius)
         m_grid = PhotonHashGrid(m_photons.data(), m_photons.size(), radius);
     else

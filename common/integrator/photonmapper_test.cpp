@@ -245,9 +245,9 @@ TEST_F(PhotonMapperTest, SampledDirectLightLeavesOnlyDirectPhotonsOut) {
 }
 
 // Progressive kNN: each pass's kNN radius shrinks by the schedule's r_i / r_0. At the foot of a
-// point light over a plane the irradiance peaks (E = h³ / (h² + s²)^(3/2) at distance s from the
+// point light over a plane the irradiance peaks (E ∝ h³ / (h² + s²)^(3/2) at distance s from the
 // foot; radiance 0.5/π there), so a kNN estimate reads low: with k = 16 and 200 photons per pass
-// the k-th neighbour lies at R² ≈ 0.3 h², and the disk average there is some 19% below the peak.
+// the k-th neighbour lies at R² ≈ 0.4 h², and the estimate there is some 22% below the peak.
 // Averaging passes of that fixed-k estimate (independent photon maps: one seed per pass, without
 // `progressive`) converges to the biased value, so its error plateaus; the progressive estimate's
 // blur shrinks with the radii, and its error keeps falling. RMS error over 24 seeds at 16 and 1024

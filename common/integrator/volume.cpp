@@ -10,8 +10,8 @@ namespace {
 
 // One equiangular estimate of the light that a uniformly chosen emitter scatters into the
 // segment towards its origin (nothing when the emitter chosen is not point-like), MIS-weighted
-// against free-flight sampling. Always draws
-// 1D + 1D + 2D numbers (plus what ratio tracking on the shadow ray needs).
+// against free-flight sampling. Always draws 1D + 1D + 2D numbers (plus what ratio tracking on
+// the shadow ray needs).
 Color3f sampleEquiangular(const Scene& scene, Sampler& sampler, const EquiangularSegment& segment,
                           const Medium& medium, const Color3f& sigmaS,
                           const Eigen::AlignedBox3f& bounds) {

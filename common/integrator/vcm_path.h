@@ -57,7 +57,9 @@ struct BidirectionalPassData : PassData {
     std::vector<PathVertex> lightVertices;  // all light subpaths of the pass, in path order
     std::vector<uint64_t> lightPathStart;   // path i holds vertices [start[i], start[i + 1])
     float mergeRadius = 0.0f;
-    std::vector<Photon> mergePoints;    // non-delta light vertices 1.., positions only
+    // Non-delta light vertices 1.. as photons for the merge grid, which reads their positions;
+    // a merge reads the vertex itself through mergeVertex.
+    std::vector<Photon> mergePoints;
     std::vector<uint32_t> mergeVertex;  // index into lightVertices of each merge point
     std::vector<uint32_t> mergeDepth;   // its index in its light subpath
     PhotonHashGrid mergeGrid;

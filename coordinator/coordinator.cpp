@@ -439,6 +439,7 @@ Coordinator::ImageSnapshot Coordinator::snapshot(uint64_t jobId, bool preview) {
     const JobFilm* source = nullptr;
     int x0 = 0, y0 = 0, width = 0, height = 0;
     PassHalves halves = PassHalves::Kept;
+    SmallerRadius smallerRadius = SmallerRadius::None;
     {
         std::lock_guard lock(m_mutex);
         Job& job = jobLocked(jobId);
@@ -457,11 +458,12 @@ Coordinator::ImageSnapshot Coordinator::snapshot(uint64_t jobId, bool preview) {
             source = job.film.get();
             x0 = film.x0(), y0 = film.y0(), width = film.width(), height = film.height();
             halves = film.keepsHalves() ? PassHalves::Kept : PassHalves::None;
+            smallerRadius = film.keepsSmallerRadius() ? SmallerRadius::Kept : SmallerRadius::None;
         }
     }
     if (source) {
         // Allocated without the lock, filled band by band under it (copyFilmInBands).
-        snap.film = FilmBlock(x0, y0, width, height, halves);
+        snap.film = FilmBlock(x0, y0, width, height, halves, smallerRadius);
         if (copyFilmInBands(jobId, source, snap.film)) return snap;
     }
     // A finished job whose film was released from memory: read its final checkpoint.
@@ -475,18 +477,14 @@ bool Coordinator::copyFilmInBands(uint64_t jobId, const JobFilm* source, FilmBlo
     constexpr size_t kBandBytes = size_t(1) << 20;
     const int rowsPerBand = static_cast<int>(
         std::max<size_t>(1, kBandBytes / (size_t(target.width()) * target.bytesPerPixel())));
-    const int x0 = target.x0(), width = target.width(), yEnd = target.y0() + target.height();
+    const int yEnd = target.y0() + target.height();
     for (int y = target.y0(); y < yEnd; y += rowsPerBand) {
         std::lock_guard lock(m_mutex);
         // The job may have been deleted, or ended and released its film, between two bands.
         const Job& job = jobLocked(jobId);
         if (job.film.get() != source || !source->inMemory()) return false;
         const FilmBlock& film = source->film();
-        for (int row = y; row < std::min(y + rowsPerBand, yEnd); ++row) {
-            std::copy_n(&film.at(x0, row), width, &target.at(x0, row));
-            if (target.keepsHalves())
-                std::copy_n(&film.oddAt(x0, row), width, &target.oddAt(x0, row));
-        }
+        target.copyRows(film, y, std::min(y + rowsPerBand, yEnd));
         target.invalidSamples = film.invalidSamples;
     }
     return true;

@@ -554,6 +554,39 @@ TEST_F(CoordinatorJob, AJobKeepsTheFilmLayoutItWasAdmittedWith) {
     coordinator.stop();
 }
 
+// A preview of a progressive photon job holds every sum its film keeps, the smaller radius's
+// image included (copyFilmInBands copies the film's whole layout).
+TEST_F(CoordinatorJob, APreviewKeepsTheSmallerRadiusImage) {
+    writeScene(R"(<integrator type="photonmapper">
+    <integer name="photonCount" value="500"/>
+    <float name="surfacePhotonRadius" value="0.5"/>
+    <boolean name="progressive" value="true"/>
+  </integrator>)",
+               40, 30,
+               R"(<emitter type="point">
+    <point name="position" value="0, 3, 0"/><color name="power" value="50, 50, 50"/>
+  </emitter>)");
+    Coordinator coordinator(m_options);
+    const v1::JobStatus status = coordinator.submit(upload(coordinator, 2));
+    const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+    FilmBlock expected(0, 0, 40, 30, PassHalves::Kept, SmallerRadius::Kept);
+    for (uint32_t unit = 0; unit + 1 < status.units_total(); ++unit) {
+        const v1::AcquireWorkResponse lease =
+            coordinator.acquire(worker, std::chrono::steady_clock::now());
+        ASSERT_TRUE(lease.has_work());
+        std::string compressed;
+        const v1::ResultChunk header = render(lease, worker, compressed);
+        ASSERT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
+        FilmBlock block(header.block_x0(), header.block_y0(), header.block_width(),
+                        header.block_height(), PassHalves::Kept, SmallerRadius::Kept);
+        farm::decompressFilm(compressed, block);
+        expected.add(block);
+    }
+    const FilmBlock preview = coordinator.snapshot(status.job_id(), true).film;
+    ASSERT_TRUE(preview.keepsSmallerRadius());
+    EXPECT_EQ(preview.serialize(), expected.serialize());
+}
+
 // A preview copies the job's film in bands of rows (about 1 MiB each), one lock hold per band:
 // the copy of a film of several bands must still be the whole film, every row once.
 TEST_F(CoordinatorJob, APreviewOfAFilmOfSeveralBandsIsTheWholeFilm) {

@@ -29,6 +29,21 @@ void FilmBlock::clear() {
     invalidSamples = 0;
 }
 
+void FilmBlock::copyRows(const FilmBlock& from, int yBegin, int yEnd) {
+    if (from.m_x0 != m_x0 || from.m_y0 != m_y0 || from.m_width != m_width ||
+        from.m_height != m_height || from.m_halves != m_halves ||
+        from.m_smallerRadius != m_smallerRadius)
+        fail("cannot copy rows between blocks of different shapes or layouts");
+    const size_t begin = size_t(yBegin - m_y0) * m_width, end = size_t(yEnd - m_y0) * m_width;
+    const std::vector<PixelSum>* source[] = {&from.m_pixels, &from.m_odd, &from.m_smaller,
+                                             &from.m_smallerOdd};
+    std::vector<PixelSum>* target[] = {&m_pixels, &m_odd, &m_smaller, &m_smallerOdd};
+    for (int i = 0; i < 4; ++i)
+        if (!target[i]->empty())
+            std::copy(source[i]->begin() + begin, source[i]->begin() + end,
+                      target[i]->begin() + begin);
+}
+
 FilmBlock FilmBlock::smallerRadiusFilm() const {
     if (!keepsSmallerRadius()) fail("the film keeps no smaller radius's sums");
     FilmBlock film(m_x0, m_y0, m_width, m_height, m_halves);

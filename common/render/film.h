@@ -116,6 +116,9 @@ class FilmBlock {
     // passes count in both the totals and the odd half, even passes in the totals only.
     void addPassesOfParity(const FilmBlock& samples, bool oddPasses);
     void clear();
+    // Copies rows [yBegin, yEnd) of every sum `from` holds; `from` has this block's rectangle
+    // and layout (halves, smaller radius).
+    void copyRows(const FilmBlock& from, int yBegin, int yEnd);
 
     // Bytes per pixel of serialize(): the totals, the odd half when kept, and the smaller
     // radius's totals and odd half when kept.

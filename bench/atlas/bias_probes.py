@@ -2,7 +2,7 @@
 """The two bias estimates of common/render/error_estimate.h against the atlas's truth, on the
 progressive photon mappers' series of cbox, caustic, sds and stage_crop.
 
-    /usr/bin/python3 bench/atlas/bias_probes.py REFERENCE_DIR [--build build]
+    /usr/bin/python3 bench/atlas/bias_probes.py REFERENCE_DIR [--build build] [--scenes a,b]
 
 REFERENCE_DIR holds the atlas's references (SCENE_ref.exr and its halves SCENE_ref_0.exr,
 SCENE_ref_1.exr, as run_atlas.py writes them). For every scene it runs bench_atlas_render with
@@ -10,10 +10,12 @@ SCENE_ref_1.exr, as run_atlas.py writes them). For every scene it runs bench_atl
 taken out in quadrature), the noise-only estimate and each bias estimate, and truth / prediction
 for noise only, noise + temporal bias and noise + two-radii bias.
 
-Where the reference is itself a progressive photon map (caustic, sds) it shares the bias left at
-its own pass count: against it only the part of the bias that falls between n passes and the
-reference's N is measurable, B(n) - B(N) = B(n) (1 - mean_{i<N} r_i^2 / mean_{i<n} r_i^2). The
-predictions are compared with the truth after that correction (column "seen").
+Where the reference is itself a progressive photon map (caustic, sds, and stage_crop, whose pin
+spot reaches the crop only through the disco ball's mirror facets, which path tracing cannot
+follow to a delta light) it shares the bias left at its own pass count: against it only the
+part of the bias that falls between n passes and the reference's N is measurable,
+B(n) - B(N) = B(n) (1 - mean_{i<N} r_i^2 / mean_{i<n} r_i^2). The predictions are compared with
+the truth after that correction (column "seen").
 """
 import argparse
 import csv
@@ -38,7 +40,7 @@ SCENES = {
     "stage_crop": ("scenes/stage/stage.xml", "480x270", "160,60,320,180",
                    "volumetric_photonmapper",
                    PPM + ["float:volumePhotonRadius=0.1"],
-                   "surfacePhotonRadius,volumePhotonRadius", "16,64", None),
+                   "surfacePhotonRadius,volumePhotonRadius", "16,64", 128),
 }
 
 
@@ -58,12 +60,18 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("references")
     parser.add_argument("--build", default=os.path.join(ROOT, "build"))
+    parser.add_argument("--scenes", default="", help="comma-separated subset of the scenes")
     args = parser.parse_args()
+    names = args.scenes.split(",") if args.scenes else list(SCENES)
+    for name in names:
+        if name not in SCENES:
+            parser.error("unknown scene %s; the probes cover %s" % (name, ", ".join(SCENES)))
     tool = os.path.join(args.build, "bench", "bench_atlas_render")
     print("| scene | passes | truth | noise est. | bias temporal | bias two radii | "
           "truth / noise | truth / (noise + temporal) | truth / (noise + two radii) |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for name, (path, size, crop, integrator, params, probes, ladder, ref_passes) in SCENES.items():
+    for name in names:
+        path, size, crop, integrator, params, probes, ladder, ref_passes = SCENES[name]
         ref = os.path.join(args.references, name + "_ref.exr")
         halves = [os.path.join(args.references, "%s_ref_%d.exr" % (name, i)) for i in (0, 1)]
         between = float(subprocess.run([tool, "compare"] + halves, check=True,

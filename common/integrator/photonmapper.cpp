@@ -6,7 +6,8 @@
 // their power is divided by the number emitted, never by the number stored.
 // Camera paths: from the camera through any chain of delta (mirror, glass, null) surfaces to the
 // first non-delta hit, where the reflected radiance is the photon density estimate, and
-// emission is added wherever the path hits an emitter. Direct light is counted exactly once,
+// emission is added wherever the path hits an emitter; at its first two delta surfaces it
+// follows both lobes of glass (see follow()). Direct light is counted exactly once,
 // by one of two means (`directLight`):
 // - "photons": photons carry all of it, so the image is the photon estimate plus the emitters
 //   seen directly or through delta surfaces;

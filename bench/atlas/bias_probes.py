@@ -12,11 +12,19 @@ SCENE_ref_1.exr, as run_atlas.py writes them). For every scene it runs bench_atl
 taken out in quadrature), the noise-only estimate and each bias estimate, and truth / prediction
 for noise only, noise + temporal bias and noise + two-radii bias.
 
-The volume scenes (VOLUME_SCENES, references by volume_path_mis as run_atlas.py writes them) need
+The volume scenes (VOLUME_SCENES, unbiased references by volume_path_mis, named as above) need
 no second render: the film of a progressive volumetric photon mapper keeps the smaller radii's
 image, so each render prints its noise and its two-radii bias (bench_atlas_render's
 predicted_noise and film_bias_two_radii columns); the table gives truth / noise and truth /
-(noise + two radii).
+(noise + two radii). Their references are made at the scenes' sizes here (60x45, 80x45: small,
+so that a reference far less noisy than 256 passes is cheap), two halves of other seeds averaged:
+
+    T=build/bench/bench_atlas_render
+    $T render scenes/seed/medium_sphere_scatter.xml --size 60x45 --integrator volume_path_mis \
+        --seed 101 --passes 2048 --write-exr DIR/medium_sphere_scatter_ref_0.exr   (and seed 102: _1)
+    $T render scenes/seed/spotlight_fog.xml --size 80x45 --integrator volume_path_mis \
+        --seed 101 --passes 8192 --write-exr DIR/spotlight_fog_ref_0.exr           (and seed 102: _1)
+    $T average DIR/SCENE_ref_0.exr DIR/SCENE_ref_1.exr DIR/SCENE_ref.exr
 
 --order measures the order p of the radius's bias, B(r) ~ r^p, without a reference: the film's
 two-radii estimate at first radii r is 2 |Y(r) - Y(r/sqrt 2)|, which is (2 - 2^(1 - p/2)) B(r) in
@@ -64,17 +72,17 @@ SCENES = {
 # radius's bias, which leaves the beam estimate's.
 VPM = ["int:photonCount=100000", "bool:progressive=true", "float:alpha=0.5"]
 VOLUME_SCENES = {
-    "medium_sphere_scatter": ("scenes/seed/medium_sphere_scatter.xml", "120x90",
+    "medium_sphere_scatter": ("scenes/seed/medium_sphere_scatter.xml", "60x45",
                               VPM + ["float:surfacePhotonRadius=0.05",
                                      "float:volumePhotonRadius=0.05"], "16,64,256"),
-    "medium_sphere_scatter_r0.2": ("scenes/seed/medium_sphere_scatter.xml", "120x90",
+    "medium_sphere_scatter_r0.2": ("scenes/seed/medium_sphere_scatter.xml", "60x45",
                                    VPM + ["float:surfacePhotonRadius=0.05",
                                           "float:volumePhotonRadius=0.2",
                                           "string:directLight=nee"], "16,64,256"),
-    "spotlight_fog": ("scenes/seed/spotlight_fog.xml", "160x90",
+    "spotlight_fog": ("scenes/seed/spotlight_fog.xml", "80x45",
                       VPM + ["float:surfacePhotonRadius=0.1", "float:volumePhotonRadius=0.1"],
                       "16,64,256"),
-    "spotlight_fog_knn": ("scenes/seed/spotlight_fog.xml", "160x90",
+    "spotlight_fog_knn": ("scenes/seed/spotlight_fog.xml", "80x45",
                           VPM + ["float:surfacePhotonRadius=0.1", "int:volumeK=10"],
                           "16,64,256"),
 }
@@ -85,15 +93,15 @@ VOLUME_REFERENCES = {"medium_sphere_scatter_r0.2": "medium_sphere_scatter",
 # second render. Large first radii, so that the bias stands out of the noise at once.
 ORDER_SCENES = {
     "medium_sphere_scatter (volume radius)": (
-        "scenes/seed/medium_sphere_scatter.xml", "120x90",
+        "scenes/seed/medium_sphere_scatter.xml", "60x45",
         ["int:photonCount=20000", "bool:progressive=true", "float:surfacePhotonRadius=0.02",
          "float:volumePhotonRadius=0.3", "string:directLight=nee"], ["volumePhotonRadius"], 64),
     "spotlight_fog (volume radius)": (
-        "scenes/seed/spotlight_fog.xml", "160x90",
+        "scenes/seed/spotlight_fog.xml", "80x45",
         ["int:photonCount=20000", "bool:progressive=true", "float:surfacePhotonRadius=0.02",
          "float:volumePhotonRadius=0.4", "string:directLight=nee"], ["volumePhotonRadius"], 64),
     "spotlight_fog (volume kNN)": (
-        "scenes/seed/spotlight_fog.xml", "160x90",
+        "scenes/seed/spotlight_fog.xml", "80x45",
         ["int:photonCount=20000", "bool:progressive=true", "float:surfacePhotonRadius=0.02",
          "int:volumeK=40", "float:volumePhotonRadius=2", "string:directLight=nee"],
         [], 64),

@@ -66,10 +66,10 @@ SCENES = {
 
 # The volumetric photon mapper, the film's own two radii (every surface disk and beam disk at half
 # its area): scene: file, size, parameters, ladder. medium_sphere: the atlas's radii (0.05);
-# medium_sphere_r0.2: first radii four times larger, where the volume radius's bias dominates;
-# spotlight_fog: fixed radii and the scene's own volume kNN radii (progressive, shrunk by the
-# schedule). directLight "nee" on the medium spheres keeps the floor's shadow off the surface
-# radius's bias, which leaves the beam estimate's.
+# medium_sphere_r0.2: a first volume radius four times larger, where its bias dominates
+# (directLight "nee" keeps the floor's shadow off the surface radius's bias); spotlight_fog:
+# fixed radii (the atlas's, and a volume radius of 0.4 where its bias shows) and the scene's own
+# volume kNN radii (progressive, shrunk by the schedule).
 VPM = ["int:photonCount=100000", "bool:progressive=true", "float:alpha=0.5"]
 VOLUME_SCENES = {
     "medium_sphere_scatter": ("scenes/seed/medium_sphere_scatter.xml", "60x45",
@@ -82,25 +82,38 @@ VOLUME_SCENES = {
     "spotlight_fog": ("scenes/seed/spotlight_fog.xml", "80x45",
                       VPM + ["float:surfacePhotonRadius=0.1", "float:volumePhotonRadius=0.1"],
                       "16,64,256"),
+    "spotlight_fog_r0.4": ("scenes/seed/spotlight_fog.xml", "80x45",
+                           VPM + ["float:surfacePhotonRadius=0.1",
+                                  "float:volumePhotonRadius=0.4"], "16,64,256"),
     "spotlight_fog_knn": ("scenes/seed/spotlight_fog.xml", "80x45",
                           VPM + ["float:surfacePhotonRadius=0.1", "int:volumeK=10"],
                           "16,64,256"),
 }
 # Where each volume scene's reference lives under REFERENCE_DIR (run_atlas.py's names).
 VOLUME_REFERENCES = {"medium_sphere_scatter_r0.2": "medium_sphere_scatter",
-                     "spotlight_fog_knn": "spotlight_fog"}
+                     "spotlight_fog_r0.4": "spotlight_fog", "spotlight_fog_knn": "spotlight_fog"}
 # --order: scene, size, parameters and passes; the radii named are divided by sqrt 2 in the
-# second render. Large first radii, so that the bias stands out of the noise at once.
+# second render (none named: volumeK divided by 2^(3/2)). Large first radii, so that the bias
+# stands out of the noise at once; sigmaT r, the first volume radius in mean free paths, is
+# where a medium's boundaries lower the order (docs/error-estimate.md).
 ORDER_SCENES = {
-    "medium_sphere_scatter (volume radius)": (
+    "medium_sphere_scatter, volume radius 0.3 (sigmaT r = 3)": (
         "scenes/seed/medium_sphere_scatter.xml", "60x45",
         ["int:photonCount=20000", "bool:progressive=true", "float:surfacePhotonRadius=0.02",
          "float:volumePhotonRadius=0.3", "string:directLight=nee"], ["volumePhotonRadius"], 64),
-    "spotlight_fog (volume radius)": (
+    "medium_sphere_scatter, volume radius 0.1 (sigmaT r = 1)": (
+        "scenes/seed/medium_sphere_scatter.xml", "60x45",
+        ["int:photonCount=20000", "bool:progressive=true", "float:surfacePhotonRadius=0.02",
+         "float:volumePhotonRadius=0.1", "string:directLight=nee"], ["volumePhotonRadius"], 64),
+    "farm_vpm.xml sphere, volume radius 0.5 (sigmaT r = 0.6)": (
+        "tests/integration/scenes/farm_vpm.xml", "64x48",
+        ["int:photonCount=20000", "bool:progressive=true", "float:surfacePhotonRadius=0.02",
+         "float:volumePhotonRadius=0.5", "string:directLight=nee"], ["volumePhotonRadius"], 64),
+    "spotlight_fog, volume radius 0.4 (sigmaT r = 0.05)": (
         "scenes/seed/spotlight_fog.xml", "80x45",
         ["int:photonCount=20000", "bool:progressive=true", "float:surfacePhotonRadius=0.02",
          "float:volumePhotonRadius=0.4", "string:directLight=nee"], ["volumePhotonRadius"], 64),
-    "spotlight_fog (volume kNN)": (
+    "spotlight_fog, volume kNN k = 40 (k = 14)": (
         "scenes/seed/spotlight_fog.xml", "80x45",
         ["int:photonCount=20000", "bool:progressive=true", "float:surfacePhotonRadius=0.02",
          "int:volumeK=40", "float:volumePhotonRadius=2", "string:directLight=nee"],

@@ -54,11 +54,13 @@
 // Bias estimate (progressive mode, fixed radii or kNN): LiTwoRadii() also returns the image at the
 // smaller radii, every surface disk and every photon's beam disk shrunk to
 // kSmallerRadiusAreaRatio (1/2) of its area, from the same queries, camera path and
-// transmittance estimates (the main image's floats are Li()'s). The factor the film's two-radii
-// estimate assumes, a bias proportional to r², holds for the beam estimate as for the surface
-// one: its kernel blurs only across the line (the closest point t_i is exact along it), a disc of
-// radius r over the line integral of in-scattered light, whose first-order term cancels by the
-// disc's symmetry (docs/error-estimate.md; bench/atlas/bias_probes.py measures it).
+// transmittance estimates (the main image's floats are Li()'s). The film's two-radii estimate
+// assumes a bias proportional to r². The beam kernel blurs only across the line (the closest
+// point t_i is exact along it): a disc of radius r over the line integral of in-scattered light,
+// whose first-order term cancels by symmetry where that light is smooth across the beams, so
+// the order is 2 there as for surfaces. At a medium's boundary (radius not small against the
+// mean free path) and at edges of light in a medium it falls slower and the estimate is low
+// (docs/error-estimate.md; bench/atlas/bias_probes.py measures both).
 #include "common/integrator/photon_mapping.h"
 #include "common/integrator/volume.h"
 #include "common/photon/photon_tracer.h"

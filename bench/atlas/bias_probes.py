@@ -12,12 +12,13 @@ SCENE_ref_1.exr, as run_atlas.py writes them). For every scene it runs bench_atl
 taken out in quadrature), the noise-only estimate and each bias estimate, and truth / prediction
 for noise only, noise + temporal bias and noise + two-radii bias.
 
-The volume scenes (VOLUME_SCENES, unbiased references by volume_path_mis, named as above) need
-no second render: the film of a progressive volumetric photon mapper keeps the smaller radii's
-image, so each render prints its noise and its two-radii bias (bench_atlas_render's
-predicted_noise and film_bias_two_radii columns); the table gives truth / noise and truth /
-(noise + two radii). Their references are made at the scenes' sizes here (60x45, 80x45: small,
-so that a reference far less noisy than 256 passes is cheap), two halves of other seeds averaged:
+The volume scenes (VOLUME_SCENES, unbiased references by volume_path_mis, named as above) and
+photonmapper's progressive kNN on the Cornell box (KNN_SCENES, the atlas's cbox reference) need
+no second render: the film of a progressive photon mapper keeps the smaller radii's image, so
+each render prints its noise and its two-radii bias (bench_atlas_render's predicted_noise and
+film_bias_two_radii columns); the table gives truth / noise and truth / (noise + two radii).
+The volume references are made at the scenes' sizes here (60x45, 80x45: small, so that a
+reference far less noisy than 256 passes is cheap), two halves of other seeds averaged:
 
     T=build/bench/bench_atlas_render
     $T render scenes/seed/medium_sphere_scatter.xml --size 60x45 --integrator volume_path_mis \
@@ -90,7 +91,15 @@ VOLUME_SCENES = {
                           "16,64,256"),
 }
 # Where each volume scene's reference lives under REFERENCE_DIR (run_atlas.py's names).
-VOLUME_REFERENCES = {"medium_sphere_scatter_r0.2": "medium_sphere_scatter",
+# photonmapper's progressive k nearest neighbours keep the two radii in their films too (the
+# smaller disk: half the area of the shrunk kNN disk), measured on the Cornell box (the atlas's
+# reference, path_mis at 128x128).
+KNN_SCENES = {
+    "cbox_knn": ("scenes/cbox/cbox.xml", "128x128",
+                 ["int:photonCount=100000", "int:surfaceK=50", "bool:progressive=true",
+                  "float:alpha=0.5", "string:directLight=photons"], "4,16,64"),
+}
+VOLUME_REFERENCES = {"medium_sphere_scatter_r0.2": "medium_sphere_scatter", "cbox_knn": "cbox",
                      "spotlight_fog_r0.4": "spotlight_fog", "spotlight_fog_knn": "spotlight_fog"}
 # --order: scene, size, parameters and passes; the radii named are divided by sqrt 2 in the
 # second render (none named: volumeK divided by 2^(3/2)). Large first radii, so that the bias
@@ -137,15 +146,16 @@ def reference_noise(tool, references, name):
     return between / 2.0
 
 
-def volume_rows(tool, references, names):
+def film_rows(tool, references, names):
     print("| scene | passes | truth | noise est. | bias two radii | truth / noise | "
           "truth / (noise + two radii) |")
     print("|---|---:|---:|---:|---:|---:|---:|")
     for name in names:
-        path, size, params, ladder = VOLUME_SCENES[name]
+        path, size, params, ladder = VOLUME_SCENES.get(name) or KNN_SCENES[name]
+        integrator = "volumetric_photonmapper" if name in VOLUME_SCENES else "photonmapper"
         ref_name = VOLUME_REFERENCES.get(name, name)
         ref_noise = reference_noise(tool, references, ref_name)
-        for r in render(tool, path, size, "volumetric_photonmapper", params, ladder,
+        for r in render(tool, path, size, integrator, params, ladder,
                         reference=os.path.join(references, ref_name + "_ref.exr")):
             measured = float(r["relative_rmse"])
             truth = math.sqrt(max(0.0, measured ** 2 - ref_noise ** 2))
@@ -212,9 +222,9 @@ def main():
     if not args.references:
         parser.error("REFERENCE_DIR is needed (except with --order)")
     surface = [n for n in SCENES if chosen is None or n in chosen]
-    volume = [n for n in VOLUME_SCENES if chosen is None or n in chosen]
-    if volume:
-        volume_rows(tool, args.references, volume)
+    film = [n for n in list(VOLUME_SCENES) + list(KNN_SCENES) if chosen is None or n in chosen]
+    if film:
+        film_rows(tool, args.references, film)
     if not surface:
         return
     print("| scene | passes | truth | noise est. | bias temporal | bias two radii | "

@@ -1,5 +1,5 @@
 // The renderer and error meter of the speed-vs-accuracy atlas (bench/atlas/run_atlas.py drives
-// it; docs/accuracy.md shows the results). Three modes:
+// it; docs/accuracy.md shows the results). Four modes:
 //
 //   bench_atlas_render render SCENE --integrator TYPE [--set KIND:NAME=VALUE]... [--size WxH]
 //       [--crop X0,Y0,X1,Y1] [--seed S] --passes N1,N2,... [--cpu-budget SECONDS]
@@ -23,6 +23,11 @@
 //
 //   bench_atlas_render compare A.exr B.exr      prints the relative RMSE of A against B
 //   bench_atlas_render average A.exr B.exr OUT.exr   writes the pixelwise mean of A and B
+//   bench_atlas_render difference A.exr B.exr OUT.exr
+//     writes the luminance difference (A - B) / mean of B's luminance, the relative RMSE's
+//     per-pixel term, as a grey EXR, and prints the relative RMSE and the share of the squared
+//     error that the worst 0.1%, 1% and 10% of the pixels carry: where a few pixels dominate
+//     (fireflies, or a small feature one image lacks), the map shows which.
 //
 // Relative RMSE: sqrt(mean over pixels of (Y - Y_ref)²) / mean over pixels of Y_ref, with Y the
 // Rec. 709 luminance. Dividing by the mean rather than per pixel keeps near-black pixels from
@@ -34,12 +39,15 @@
 
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <iostream>
 #include <memory>
+#include <numeric>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -91,6 +99,41 @@ double relativeRmse(const Image& image, const Image& reference) {
         }
     const double pixels = double(image.width) * image.height;
     return std::sqrt(squaredError / pixels) / (referenceSum / pixels);
+}
+
+int differenceMode(const std::string& pathA, const std::string& pathB,
+                   const std::string& outputPath) {
+    const Image a = readEXR(pathA), b = readEXR(pathB);
+    if (a.width != b.width || a.height != b.height) usageError("the images differ in size");
+    const size_t pixels = size_t(a.width) * a.height;
+    double referenceSum = 0;
+    for (int y = 0; y < b.height; ++y)
+        for (int x = 0; x < b.width; ++x) referenceSum += b.get(x, y).luminance();
+    const double referenceMean = referenceSum / double(pixels);
+    if (!(referenceMean > 0)) usageError("the second image is black: no relative difference");
+    Image difference(a.width, a.height);
+    std::vector<double> squared;
+    squared.reserve(pixels);
+    for (int y = 0; y < a.height; ++y)
+        for (int x = 0; x < a.width; ++x) {
+            const double d =
+                (double(a.get(x, y).luminance()) - b.get(x, y).luminance()) / referenceMean;
+            difference.set(x, y, Color3f(float(d)));
+            squared.push_back(d * d);
+        }
+    writeEXR(outputPath, difference);
+    std::sort(squared.begin(), squared.end(), std::greater<>());
+    const double total = std::accumulate(squared.begin(), squared.end(), 0.0);
+    std::printf("relative_rmse %.6g\n", std::sqrt(total / double(pixels)));
+    for (const double fraction : {0.001, 0.01, 0.1}) {
+        const size_t worst = std::max<size_t>(1, size_t(fraction * double(pixels)));
+        const double share =
+            total > 0 ? std::accumulate(squared.begin(), squared.begin() + worst, 0.0) / total
+                      : 0.0;
+        std::printf("worst %g%% of pixels (%zu): %.3f of the squared error\n", 100 * fraction,
+                    worst, share);
+    }
+    return 0;
 }
 
 void setParameter(PropertyList& props, const std::string& text) {
@@ -264,6 +307,7 @@ int main(int argc, char** argv) {
             std::printf("%.6g\n", relativeRmse(readEXR(argv[2]), readEXR(argv[3])));
             return 0;
         }
+        if (mode == "difference" && argc == 5) return differenceMode(argv[2], argv[3], argv[4]);
         if (mode == "average" && argc == 5) {
             const Image a = readEXR(argv[2]), b = readEXR(argv[3]);
             if (a.width != b.width || a.height != b.height) usageError("the images differ in size");
@@ -276,5 +320,5 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "bench_atlas_render: %s\n", error.what());
         return 1;
     }
-    usageError("expected a mode: render, compare or average");
+    usageError("expected a mode: render, compare, average or difference");
 }

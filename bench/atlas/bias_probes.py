@@ -33,10 +33,12 @@ truth; at first radii r/sqrt 2 it is 2^(-p/2) times that. So the ratio of the es
 renders whose radii differ by sqrt 2 is 2^(-p/2): 1/2 for p = 2, the order the estimate assumes
 (then it is exact), 0.71 for p = 1. Printed per scene: both estimates, their ratio and p.
 
-Where the reference is itself a progressive photon map (caustic, sds) it shares the bias left at
-its own pass count: against it only the part of the bias that falls between n passes and the
-reference's N is measurable, B(n) - B(N) = B(n) (1 - mean_{i<N} r_i^2 / mean_{i<n} r_i^2). The
-predictions are compared with the truth after that correction (column "seen").
+Where the reference is itself a progressive photon map (caustic, sds, and stage_crop, whose pin
+spot reaches the crop only through the disco ball's mirror facets, which path tracing cannot
+follow to a delta light) it shares the bias left at its own pass count: against it only the
+part of the bias that falls between n passes and the reference's N is measurable,
+B(n) - B(N) = B(n) (1 - mean_{i<N} r_i^2 / mean_{i<n} r_i^2). The predictions are compared with
+the truth after that correction (column "seen").
 """
 import argparse
 import csv
@@ -61,7 +63,7 @@ SCENES = {
     "stage_crop": ("scenes/stage/stage.xml", "480x270", "160,60,320,180",
                    "volumetric_photonmapper",
                    PPM + ["float:volumePhotonRadius=0.1"],
-                   "surfacePhotonRadius,volumePhotonRadius", "16,64", None),
+                   "surfacePhotonRadius,volumePhotonRadius", "16,64", 128),
 }
 
 
@@ -216,6 +218,11 @@ def main():
     args = parser.parse_args()
     tool = os.path.join(args.build, "bench", "bench_atlas_render")
     chosen = args.scenes.split(",") if args.scenes else None
+    known = list(ORDER_SCENES) if args.order else list(SCENES) + list(VOLUME_SCENES) + list(
+        KNN_SCENES)
+    for name in chosen or []:
+        if name not in known:
+            parser.error("unknown scene %s; the probes cover %s" % (name, ", ".join(known)))
     if args.order:
         order_rows(tool, chosen or list(ORDER_SCENES))
         return

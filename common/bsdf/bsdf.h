@@ -25,8 +25,18 @@ struct BSDFQueryRecord {
         : wi(wi), wo(wo), measure(measure) {}
 };
 
+// One of the delta directions a BSDF's sample() chooses among: the direction, the relative index
+// of refraction along it, and its weight, the chance sample() chooses it times the weight
+// sample() then returns. The weights of all lobes sum to sample()'s expected weight.
+struct DeltaLobe {
+    Vector3f wo = Vector3f::Zero();
+    float eta = 1.0f;
+    Color3f weight = Color3f(0.0f);
+};
+
 class BSDF : public Object {
   public:
+    static constexpr int kMaxDeltaLobes = 2;
     ObjectKind kind() const override { return ObjectKind::BSDF; }
 
     // Samples wo given wi; returns eval() * cos(theta_o) / pdf(), or 0 on failure.
@@ -40,6 +50,16 @@ class BSDF : public Object {
     virtual bool isDiffuse() const { return false; }
     // True when light passes straight through without change (index-matched media boundary).
     virtual bool isNull() const { return false; }
+    // For a BSDF whose sample() chooses at random among several delta directions (glass:
+    // reflection or refraction, by the Fresnel reflectance): writes each direction it can take
+    // for this rec.wi, with its weight, and returns how many (at most kMaxDeltaLobes). An
+    // integrator may follow all of them instead of one sample (splitting), which removes the
+    // choice's variance. Returns 0 for every other BSDF: use sample().
+    virtual int deltaLobes(const BSDFQueryRecord& rec, DeltaLobe* lobes) const {
+        (void)rec;
+        (void)lobes;
+        return 0;
+    }
 };
 
 }  // namespace alphorn

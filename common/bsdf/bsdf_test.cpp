@@ -144,6 +144,47 @@ TEST(Dielectric, ReflectRefractProbabilitiesAndDirections) {
     }
 }
 
+// deltaLobes() lists what sample() chooses among: the reflection with weight F, the refraction
+// with (1 - F) / eta² and sample()'s direction and eta; under total internal reflection only the
+// reflection, with weight 1. Other BSDFs have none.
+TEST(Dielectric, DeltaLobesAreSampleChoicesWithTheirChance) {
+    PropertyList props;
+    props.setFloat("intIOR", 1.5f);
+    props.setFloat("extIOR", 1.0f);
+    auto glass = makeBSDF("dielectric", props);
+    for (float deg : {0.0f, 20.0f, 40.0f, 60.0f, 85.0f}) {
+        for (bool inside : {false, true}) {
+            Vector3f wi = directionAt(deg);
+            if (inside) wi.z() = -wi.z();
+            const double n1 = inside ? 1.5 : 1.0, n2 = inside ? 1.0 : 1.5;
+            const double F = fresnelReference(degToRad(deg), n1, n2);
+            DeltaLobe lobes[BSDF::kMaxDeltaLobes];
+            const int count = glass->deltaLobes(BSDFQueryRecord(wi), lobes);
+            BSDFQueryRecord reflected(wi), refracted(wi);
+            glass->sample(reflected, Point2f(0.0f, 0.5f));
+            const Color3f refractedWeight = glass->sample(refracted, Point2f(0.99999f, 0.5f));
+            if (F >= 1.0) {
+                ASSERT_EQ(count, 1) << deg;
+            } else {
+                ASSERT_EQ(count, 2) << deg << (inside ? " inside" : "");
+                EXPECT_EQ(lobes[1].wo, refracted.wo);
+                EXPECT_EQ(lobes[1].eta, refracted.eta);
+                EXPECT_NEAR(lobes[1].weight.r(), (1.0 - F) * refractedWeight.r(), 1e-6);
+            }
+            EXPECT_EQ(lobes[0].wo, reflected.wo);
+            EXPECT_EQ(lobes[0].eta, 1.0f);
+            EXPECT_NEAR(lobes[0].weight.r(), F, 1e-6) << deg;
+        }
+    }
+    // Beyond the critical angle from inside: reflection only.
+    Vector3f wi = directionAt(60.0f);
+    wi.z() = -wi.z();
+    DeltaLobe lobes[BSDF::kMaxDeltaLobes];
+    ASSERT_EQ(glass->deltaLobes(BSDFQueryRecord(wi), lobes), 1);
+    EXPECT_EQ(lobes[0].weight.r(), 1.0f);
+    EXPECT_EQ(makeBSDF("mirror", PropertyList())->deltaLobes(BSDFQueryRecord(wi), lobes), 0);
+}
+
 TEST(Dielectric, TotalInternalReflectionAlwaysReflects) {
     PropertyList props;
     props.setFloat("intIOR", 1.5f);

@@ -24,11 +24,44 @@ class Dielectric : public BSDF {
         rec.measure = Measure::Discrete;
         if (sample.x() < reflectance) {
             // Reflection is chosen with probability F, so the F in the weight cancels.
-            rec.wo = Vector3f(-rec.wi.x(), -rec.wi.y(), rec.wi.z());
+            rec.wo = reflect(rec.wi);
             rec.eta = 1.0f;
             return Color3f(1.0f);
         }
-        // Refraction. eta is the index on the transmitted side over the incident side.
+        return refract(rec);
+    }
+
+    int deltaLobes(const BSDFQueryRecord& rec, DeltaLobe* lobes) const override {
+        const float reflectance = fresnelDielectric(Frame::cosTheta(rec.wi), m_extIOR, m_intIOR);
+        int count = 0;
+        if (reflectance > 0.0f) lobes[count++] = {reflect(rec.wi), 1.0f, Color3f(reflectance)};
+        if (reflectance < 1.0f) {
+            BSDFQueryRecord refracted = rec;
+            const Color3f weight = refract(refracted);
+            if (!weight.isBlack())
+                lobes[count++] = {refracted.wo, refracted.eta, weight * (1.0f - reflectance)};
+        }
+        return count;
+    }
+
+    // Equal indices refract nothing and reflect nothing (Fresnel is 0): an index-matched medium
+    // boundary written as a dielectric. Volumetric integrators then cross it like <bsdf
+    // type="null">.
+    bool isNull() const override { return m_intIOR == m_extIOR; }
+
+    std::string toString() const override {
+        return "dielectric, intIOR " + std::to_string(m_intIOR) + ", extIOR " +
+               std::to_string(m_extIOR);
+    }
+
+  private:
+    static Vector3f reflect(const Vector3f& wi) { return Vector3f(-wi.x(), -wi.y(), wi.z()); }
+
+    // Refraction of rec.wi: sets wo and eta and returns the weight, 1/eta^2, or 0 where the
+    // direction would not exist.
+    Color3f refract(BSDFQueryRecord& rec) const {
+        const float cosThetaI = Frame::cosTheta(rec.wi);
+        // eta is the index on the transmitted side over the incident side.
         const bool entering = cosThetaI > 0.0f;
         const float eta = entering ? m_intIOR / m_extIOR : m_extIOR / m_intIOR;
         const float invEta = 1.0f / eta;
@@ -45,17 +78,6 @@ class Dielectric : public BSDF {
         return Color3f(invEta * invEta);
     }
 
-    // Equal indices refract nothing and reflect nothing (Fresnel is 0): an index-matched medium
-    // boundary written as a dielectric. Volumetric integrators then cross it like <bsdf
-    // type="null">.
-    bool isNull() const override { return m_intIOR == m_extIOR; }
-
-    std::string toString() const override {
-        return "dielectric, intIOR " + std::to_string(m_intIOR) + ", extIOR " +
-               std::to_string(m_extIOR);
-    }
-
-  private:
     float m_intIOR, m_extIOR;
 };
 

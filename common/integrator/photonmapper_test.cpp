@@ -244,6 +244,46 @@ TEST_F(PhotonMapperTest, SampledDirectLightLeavesOnlyDirectPhotonsOut) {
     EXPECT_DOUBLE_EQ(passData(indirectPass).powerScale, passData(allPass).powerScale);
 }
 
+// A camera path meets glass: a horizontal glass interface (index 1.5 below, 1 above), a sky of
+// radiance 1 above it and a floor-emitter of radiance 3 below it, and nothing else. A ray at 45°
+// sees the sky in the reflection with the Fresnel weight F and the lower emitter through the
+// refraction with (1 - F) / 1.5², the radiance's n² scaling. The camera path follows both lobes
+// at its first glass surfaces, so every single path must return exactly F + (1 - F) 3 / 1.5²; a
+// path that drew one lobe would return 1 or 3 / 1.5².
+TEST_F(PhotonMapperTest, ACameraPathFollowsBothLobesOfGlassWithTheirFresnelWeights) {
+    const std::string quad = "<mesh type=\"obj\"><string name=\"filename\" value=\"" + kMeshes +
+                             "quad.obj\"/><transform name=\"toWorld\"><scale value=\"100,1,100\"/>";
+    const std::string body =
+        "<camera type=\"perspective\"><transform name=\"toWorld\"><lookat origin=\"0,1,1\" "
+        "target=\"0,0,0\" up=\"0,1,0\"/></transform><integer name=\"width\" value=\"1\"/>"
+        "<integer name=\"height\" value=\"1\"/></camera>" +
+        quad +
+        "</transform><bsdf type=\"dielectric\"><float name=\"intIOR\" value=\"1.5\"/><float "
+        "name=\"extIOR\" value=\"1\"/></bsdf></mesh>" +
+        quad +
+        "<rotate axis=\"1,0,0\" angle=\"180\"/><translate value=\"0,5,0\"/></transform>"
+        "<emitter type=\"area\"><color name=\"radiance\" value=\"1\"/></emitter></mesh>" +
+        quad +
+        "<translate value=\"0,-5,0\"/></transform><emitter type=\"area\"><color "
+        "name=\"radiance\" value=\"3\"/></emitter></mesh>";
+    auto scene = load(integer("photonCount", 100), body);
+    const auto pass = scene->integrator()->preparePass(*scene, 1, 0);
+    // Unpolarised Fresnel reflectance at 45° from index 1 into 1.5.
+    const double cosI = std::sqrt(0.5), sinT = std::sqrt(0.5) / 1.5;
+    const double cosT = std::sqrt(1.0 - sinT * sinT);
+    const double rs = (cosI - 1.5 * cosT) / (cosI + 1.5 * cosT);
+    const double rp = (1.5 * cosI - cosT) / (1.5 * cosI + cosT);
+    const double F = 0.5 * (rs * rs + rp * rp);
+    const double expected = F * 1.0 + (1.0 - F) * 3.0 / (1.5 * 1.5);
+    std::unique_ptr<Sampler> sampler = scene->sampler()->clone();
+    const Ray3f ray(Point3f(0.0f, 1.0f, 1.0f), Vector3f(0.0f, -1.0f, -1.0f).normalized());
+    for (int i = 0; i < 64; ++i) {
+        sampler->startStream(1, 0, i, StreamPurpose::Camera);
+        const Color3f radiance = scene->integrator()->Li(*scene, *sampler, ray, pass.get());
+        EXPECT_NEAR(radiance.r(), expected, 1e-5 * expected) << i;
+    }
+}
+
 // Progressive kNN: each pass's kNN radius shrinks by the schedule's r_i / r_0. At the foot of a
 // point light over a plane the irradiance peaks (E ∝ h³ / (h² + s²)^(3/2) at distance s from the
 // foot; radiance 0.5/π there), so a kNN estimate reads low: with k = 16 and 200 photons per pass

@@ -12,7 +12,10 @@
 //     relative RMSE. The ladder stops early once the next render would push the total CPU time
 //     over the budget (CPU time: the machine may be shared, and wall time then measures the
 //     others' load as much as ours). --write-exr writes the image of the last render done
-//     (the references). --bias-probes (progressive photon mappers) also prints the two bias
+//     (the references). The predicted error of a film that keeps the smaller radius's image (a
+//     progressive photon mapper's) includes its two-radii bias; its noise part and that bias are
+//     printed too (predicted_noise, film_bias_two_radii; empty bias for other films).
+//     --bias-probes (progressive photon mappers) also prints the two bias
 //     estimates of error_estimate.h for each render: the temporal one from a second render of
 //     half the passes, and the two-radii one from a render with the same seed whose float
 //     parameters NAME (the gather radii, given with --set) are divided by sqrt(2); both films
@@ -237,7 +240,7 @@ int renderMode(int argc, char** argv) {
 
     std::printf(
         "passes,wall_seconds,cpu_seconds,relative_rmse,predicted_relative_rmse,"
-        "predicted_bias_temporal,predicted_bias_two_radii\n");
+        "predicted_bias_temporal,predicted_bias_two_radii,predicted_noise,film_bias_two_radii\n");
     double totalCpuSeconds = 0, lastCpuSeconds = 0;
     long lastPasses = 0;
     for (const long passes : ladder) {
@@ -265,9 +268,12 @@ int renderMode(int argc, char** argv) {
         if (reference) error = std::to_string(relativeRmse(image, *reference));
         // The film's own error estimate (its pass-parity halves, over the same window);
         // run_atlas.py draws it beside the true error. Empty where none can be made (1 pass).
-        std::string predicted;
-        if (const auto estimate = estimateError(film, window, uint32_t(passes)))
+        std::string predicted, predictedNoise, filmBias;
+        if (const auto estimate = estimateError(film, window, uint32_t(passes))) {
             predicted = std::to_string(estimate->relativeRmse);
+            predictedNoise = std::to_string(estimate->relativeNoise());
+            if (estimate->relativeBias) filmBias = std::to_string(*estimate->relativeBias);
+        }
         std::string biasTemporal, biasTwoRadii;
         if (smallerRadiusScene) {
             settings.passes = uint32_t(passes / 2);
@@ -279,8 +285,9 @@ int renderMode(int argc, char** argv) {
                     film, renderLocal(*smallerRadiusScene, settings), window, uint32_t(passes)))
                 biasTwoRadii = std::to_string(*bias);
         }
-        std::printf("%ld,%.6f,%.6f,%s,%s,%s,%s\n", passes, wall, cpu, error.c_str(),
-                    predicted.c_str(), biasTemporal.c_str(), biasTwoRadii.c_str());
+        std::printf("%ld,%.6f,%.6f,%s,%s,%s,%s,%s,%s\n", passes, wall, cpu, error.c_str(),
+                    predicted.c_str(), biasTemporal.c_str(), biasTwoRadii.c_str(),
+                    predictedNoise.c_str(), filmBias.c_str());
         std::fflush(stdout);
         if (!outputPath.empty()) writeEXR(outputPath, image);  // the last one done stays
         totalCpuSeconds += cpu;

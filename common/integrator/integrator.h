@@ -28,8 +28,8 @@ struct RadiusSchedule {
     double alpha = 0.0;
 };
 
-// The radiance along one camera ray gathered at a pass's radius r_i and at the smaller radius
-// r_i / sqrt(2), from the same camera path and the same photons.
+// The radiance along one camera ray gathered at a pass's radius r_i and at r_i / sqrt(2) (every
+// gather disk, surface or beam, at half its area), from the same camera path and photons.
 struct TwoRadiiRadiance {
     Color3f atPassRadius;
     Color3f atSmallerRadius;
@@ -56,8 +56,8 @@ class Integrator : public Object {
     // Radiance along `ray`; `pass` is what preparePass returned for the current pass.
     virtual Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,
                        const PassData* pass) const = 0;
-    // Whether LiTwoRadii() returns the radiance at a second, smaller gather radius: a
-    // progressive photon mapper with fixed radii. Its films then keep that image's sums, whose
+    // Whether LiTwoRadii() returns the radiance at a second, smaller gather radius: a progressive
+    // photon mapper (fixed or kNN radii). Its films then keep that image's sums, whose
     // difference from the image estimates the radius's bias (docs/error-estimate.md).
     virtual bool estimatesBiasWithTwoRadii() const { return false; }
     // Li() (the same floats) and, from the same gather, the radiance at the smaller radius.

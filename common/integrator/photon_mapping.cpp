@@ -127,6 +127,44 @@ Color3f shrunkNearestNeighbourEstimate(const PhotonMap& map, const Point3f& x, s
     return sum * static_cast<float>(1.0 / (M_PI * scaled2));
 }
 
+// The k-nearest-neighbour estimate of the pass (nearestNeighbourEstimate() when `scale` is 1,
+// shrunkNearestNeighbourEstimate() otherwise: the same floats) and the same at the smaller scale
+// scale * sqrt(kSmallerRadiusAreaRatio), from one query: the smaller inner disk's photons are a
+// prefix of the larger's, and its expectation is the density's mean over a disk of the same R
+// with half the area, so its blur is half the pass's, as for fixed radii.
+template <typename Weight>
+TwoRadiiRadiance nearestNeighbourEstimateTwoScales(const PhotonMap& map, const Point3f& x, size_t k,
+                                                   float maxRadius, float scale, Weight&& weight) {
+    thread_local std::vector<PhotonNeighbor> neighbors;
+    if (neighbors.size() < k) neighbors.resize(k);
+    const size_t found = map.nearest(x, k, maxRadius, neighbors.data());
+    const std::vector<Photon>& photons = map.photons();
+    double radius2 = double(maxRadius) * double(maxRadius);
+    size_t candidates = found;
+    if (found == k && neighbors[k - 1].distance2 > 0.0f) {
+        candidates = k - 1;
+        radius2 = neighbors[k - 1].distance2;
+    }
+    // At scale 1 every candidate counts (as nearestNeighbourEstimate() counts them), whatever
+    // the rounding of the search radius.
+    const bool shrunk = scale != 1.0f;
+    const double scaled2 = shrunk ? double(scale) * double(scale) * radius2 : radius2;
+    const double smaller2 = scaled2 * kSmallerRadiusAreaRatio;
+    Color3f sum(0.0f), smallerSum(0.0f);
+    for (size_t i = 0; i < candidates; ++i) {
+        const double distance2 = neighbors[i].distance2;
+        if (shrunk && distance2 > scaled2) break;
+        const Color3f w = weight(photons[neighbors[i].index]);
+        sum += w;
+        if (distance2 <= smaller2) smallerSum += w;
+    }
+    TwoRadiiRadiance result{sum, smallerSum};
+    if (!sum.isBlack()) result.atPassRadius = sum * static_cast<float>(1.0 / (M_PI * scaled2));
+    if (!smallerSum.isBlack())
+        result.atSmallerRadius = smallerSum * static_cast<float>(1.0 / (M_PI * smaller2));
+    return result;
+}
+
 }  // namespace
 
 std::optional<Vector3f> PhotonMappingIntegrator::followDeltaChain(const Intersection& its,
@@ -174,7 +212,6 @@ TwoRadiiRadiance PhotonMappingIntegrator::reflectedRadianceTwoRadii(const Photon
                                                                     const Intersection& its,
                                                                     const BSDF& bsdf,
                                                                     const Vector3f& wi) const {
-    if (m_surfaceK != 0) fail("a k-nearest-neighbour photon map gathers at one radius only");
     if (data.surface.empty()) return {Color3f(0.0f), Color3f(0.0f)};
     BSDFQueryRecord rec = makeBSDFQuery(its, wi);
     rec.measure = Measure::SolidAngle;
@@ -182,12 +219,20 @@ TwoRadiiRadiance PhotonMappingIntegrator::reflectedRadianceTwoRadii(const Photon
         rec.wo = its.toLocal(photon.direction);
         return Color3f(bsdf.eval(rec) * photon.power);
     };
-    const float smallerRadius =
-        static_cast<float>(double(data.surfaceRadius) * std::sqrt(kSmallerRadiusAreaRatio));
-    const auto [density, smallerDensity] =
-        fixedRadiusEstimateTwoRadii(data.surface, its.p, data.surfaceRadius, smallerRadius, weight);
+    TwoRadiiRadiance density;
+    if (m_surfaceK == 0) {
+        const float smallerRadius =
+            static_cast<float>(double(data.surfaceRadius) * std::sqrt(kSmallerRadiusAreaRatio));
+        const auto [atPassRadius, atSmallerRadius] = fixedRadiusEstimateTwoRadii(
+            data.surface, its.p, data.surfaceRadius, smallerRadius, weight);
+        density = {atPassRadius, atSmallerRadius};
+    } else {
+        density =
+            nearestNeighbourEstimateTwoScales(data.surface, its.p, static_cast<size_t>(m_surfaceK),
+                                              data.surfaceRadius, data.surfaceRadiusScale, weight);
+    }
     const float scale = static_cast<float>(data.powerScale);
-    return {density * scale, smallerDensity * scale};
+    return {density.atPassRadius * scale, density.atSmallerRadius * scale};
 }
 
 }  // namespace alphorn

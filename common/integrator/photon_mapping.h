@@ -56,11 +56,14 @@ class PhotonMappingIntegrator : public Integrator {
     Color3f reflectedRadiance(const PhotonPassData& data, const Intersection& its, const BSDF& bsdf,
                               const Vector3f& wi) const;
     // reflectedRadiance() (the same floats) and the same at the pass's smaller radius
-    // (kSmallerRadiusAreaRatio of its disk), from one query of a fixed-radius map.
+    // (kSmallerRadiusAreaRatio of its disk), from one query: of a fixed-radius map at the
+    // pass's radius, or of a kNN map at the pass's k neighbours, the smaller disk then
+    // kSmallerRadiusAreaRatio of the shrunk kNN disk.
     TwoRadiiRadiance reflectedRadianceTwoRadii(const PhotonPassData& data, const Intersection& its,
                                                const BSDF& bsdf, const Vector3f& wi) const;
-    // Progressive mode with fixed radii: the camera paths can gather at two radii.
-    bool gathersAtTwoRadii() const { return m_progressive && m_surfaceK == 0; }
+    // Progressive mode (fixed radii or k nearest neighbours): the camera paths can gather at two
+    // radii. Without it, the passes share one map and its radius, whose bias no pass reduces.
+    bool gathersAtTwoRadii() const { return m_progressive; }
     // One step of a camera path along a chain of delta surfaces (mirrors, glass) at `its`,
     // seen from local direction `wi`: Russian roulette from the fourth bounce on (`depth`
     // counts the earlier ones; roulette, not a cap, ends chains between mirrors), then the

@@ -50,7 +50,7 @@ class PhotonMapper : public PhotonMappingIntegrator {
     TwoRadiiRadiance LiTwoRadii(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
                                 const PassData* passData) const override {
         if (!gathersAtTwoRadii())
-            fail("photonmapper gathers at two radii only with progressive fixed radii");
+            fail("photonmapper gathers at two radii only in progressive mode");
         return trace<true>(scene, sampler, cameraRay, passData);
     }
 

@@ -50,6 +50,17 @@
 // `volumeK`, each photon's kNN radius is shrunk by the schedule's factor r_i / r_0, as the
 // surface kNN radii are (photon_mapping.cpp): the kernel still integrates to one, and its blur
 // vanishes as the passes go on.
+//
+// Bias estimate (progressive mode, fixed radii or kNN): LiTwoRadii() also returns the image at the
+// smaller radii, every surface disk and every photon's beam disk shrunk to
+// kSmallerRadiusAreaRatio (1/2) of its area, from the same queries, camera path and
+// transmittance estimates (the main image's floats are Li()'s). The film's two-radii estimate
+// assumes a bias proportional to r². The beam kernel blurs only across the line (the closest
+// point t_i is exact along it): a disc of radius r over the line integral of in-scattered light,
+// whose first-order term cancels by symmetry where that light is smooth across the beams, so
+// the order is 2 there as for surfaces. At a medium's boundary (radius not small against the
+// mean free path) and at edges of light in a medium it falls slower and the estimate is low
+// (docs/error-estimate.md; bench/atlas/bias_probes.py measures both).
 #include "common/integrator/photon_mapping.h"
 #include "common/integrator/volume.h"
 #include "common/photon/photon_tracer.h"
@@ -93,47 +104,15 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
                const PassData* passData) const override {
-        const PhotonPassData& data = photonPassData(passData);
-        Color3f result(0.0f), throughput(1.0f);
-        float etaScale = 1.0f;
-        // Unit direction: media measure distances in world units.
-        const float length = cameraRay.d.norm();
-        if (!(length > 0.0f)) return result;
-        Ray3f ray(cameraRay.o, cameraRay.d / length, cameraRay.mint * length,
-                  cameraRay.maxt * length);
-        const Medium* medium = scene.camera()->medium();
-        Eigen::AlignedBox3f bounds = m_mediaBox;
-        bounds.extend(cameraRay.o);
-        thread_local StraightPath line;
-        for (int depth = 0;;) {
-            Intersection its;
-            const bool hit = walkStraight(scene, ray, bounds, medium, line, its);
-            // Beam estimate and emission of null surfaces along the line, then its transmittance.
-            result += throughput * lineRadiance(data, line, hit ? &its : nullptr, sampler);
-            throughput *= line.transmittance;
-            if (!hit || throughput.isBlack()) break;
+        return trace<false>(scene, sampler, cameraRay, passData).atPassRadius;
+    }
 
-            const Vector3f dir = ray.d;
-            result += throughput * emittedRadiance(its.p - its.t * dir, dir, its);
-            const BSDF& bsdf = *its.mesh->bsdf();
-            const Vector3f wi = its.toLocal(-dir);
-            if (bsdf.isDiffuse()) {
-                result += throughput * reflectedRadiance(data, its, bsdf, wi);
-                if (samplesDirectLight()) {
-                    const ScatteringVertex vertex =
-                        ScatteringVertex::onSurface(its, bsdf, dir, medium);
-                    result +=
-                        throughput * sampleLightThroughMedia(scene, sampler, vertex, bounds, false);
-                }
-                break;
-            }
-            const auto next = followDeltaChain(its, wi, depth++, sampler, throughput, etaScale);
-            if (!next) break;
-            const Vector3f wo = next->normalized();
-            medium = its.mesh->mediumTowards(its, wo, medium);
-            ray = Ray3f(its.p, wo);
-        }
-        return result;
+    bool estimatesBiasWithTwoRadii() const override { return gathersAtTwoRadii(); }
+    TwoRadiiRadiance LiTwoRadii(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
+                                const PassData* passData) const override {
+        if (!gathersAtTwoRadii())
+            fail("volumetric_photonmapper gathers at two radii only in progressive mode");
+        return trace<true>(scene, sampler, cameraRay, passData);
     }
 
     std::string toString() const override {
@@ -166,6 +145,70 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
             if (isParticipating(mesh->insideMedium()) || isParticipating(mesh->outsideMedium()))
                 return true;
         return false;
+    }
+
+    // The camera path. With TwoRadii, the radiance at the smaller radii too: the same path (the
+    // same samples, the same transmittance estimates) with the surface estimate and every beam
+    // estimate gathered at kSmallerRadiusAreaRatio of their disks' areas; the first result's
+    // floats are Li()'s.
+    template <bool TwoRadii>
+    TwoRadiiRadiance trace(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
+                           const PassData* passData) const {
+        const PhotonPassData& data = photonPassData(passData);
+        Color3f result(0.0f), smallerResult(0.0f), throughput(1.0f);
+        float etaScale = 1.0f;
+        // Unit direction: media measure distances in world units.
+        const float length = cameraRay.d.norm();
+        if (!(length > 0.0f)) return {result, smallerResult};
+        Ray3f ray(cameraRay.o, cameraRay.d / length, cameraRay.mint * length,
+                  cameraRay.maxt * length);
+        const Medium* medium = scene.camera()->medium();
+        Eigen::AlignedBox3f bounds = m_mediaBox;
+        bounds.extend(cameraRay.o);
+        thread_local StraightPath line;
+        for (int depth = 0;;) {
+            Intersection its;
+            const bool hit = walkStraight(scene, ray, bounds, medium, line, its);
+            // Beam estimate and emission of null surfaces along the line, then its transmittance.
+            const TwoRadiiRadiance along =
+                lineRadiance<TwoRadii>(data, line, hit ? &its : nullptr, sampler);
+            result += throughput * along.atPassRadius;
+            if constexpr (TwoRadii) smallerResult += throughput * along.atSmallerRadius;
+            throughput *= line.transmittance;
+            if (!hit || throughput.isBlack()) break;
+
+            const Vector3f dir = ray.d;
+            const Color3f emitted = throughput * emittedRadiance(its.p - its.t * dir, dir, its);
+            result += emitted;
+            if constexpr (TwoRadii) smallerResult += emitted;
+            const BSDF& bsdf = *its.mesh->bsdf();
+            const Vector3f wi = its.toLocal(-dir);
+            if (bsdf.isDiffuse()) {
+                if constexpr (TwoRadii) {
+                    const TwoRadiiRadiance reflected =
+                        reflectedRadianceTwoRadii(data, its, bsdf, wi);
+                    result += throughput * reflected.atPassRadius;
+                    smallerResult += throughput * reflected.atSmallerRadius;
+                } else {
+                    result += throughput * reflectedRadiance(data, its, bsdf, wi);
+                }
+                if (samplesDirectLight()) {
+                    const ScatteringVertex vertex =
+                        ScatteringVertex::onSurface(its, bsdf, dir, medium);
+                    const Color3f direct =
+                        throughput * sampleLightThroughMedia(scene, sampler, vertex, bounds, false);
+                    result += direct;
+                    if constexpr (TwoRadii) smallerResult += direct;
+                }
+                break;
+            }
+            const auto next = followDeltaChain(its, wi, depth++, sampler, throughput, etaScale);
+            if (!next) break;
+            const Vector3f wo = next->normalized();
+            medium = its.mesh->mediumTowards(its, wo, medium);
+            ray = Ray3f(its.p, wo);
+        }
+        return {result, smallerResult};
     }
 
     std::shared_ptr<const PhotonPassData> tracePass(const Scene& scene, uint64_t seed,
@@ -252,10 +295,15 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
     // query's clip, but a line meeting a wall obliquely passes photons just behind it at closest
     // points before `end`. When a surface ends the line (`wall`), photons on the far side of its
     // tangent plane are left out too.
-    Color3f lineRadiance(const PhotonPassData& data, StraightPath& line, const Intersection* wall,
-                         Sampler& sampler) const {
+    //
+    // With TwoRadii, also the same at the smaller radii: each photon's sphere shrunk to
+    // kSmallerRadiusAreaRatio of its disk's area, from the same query (the smaller spheres the
+    // line crosses are among the larger ones) and the same transmittance walk.
+    template <bool TwoRadii>
+    TwoRadiiRadiance lineRadiance(const PhotonPassData& data, StraightPath& line,
+                                  const Intersection* wall, Sampler& sampler) const {
         line.transmittance = Color3f(1.0f);
-        if (line.spans.empty() && line.emissions.empty()) return Color3f(0.0f);
+        if (line.spans.empty() && line.emissions.empty()) return {Color3f(0.0f), Color3f(0.0f)};
         Color3f& transmittance = line.transmittance;
         size_t span = 0;
         float walked = 0.0f;
@@ -281,7 +329,7 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
         const Normal3f wallNormal = wall ? wall->geometricNormal() : Normal3f::UnitZ();
         const float cameraSide = wall ? (line.origin - wall->p).dot(wallNormal) : 0.0f;
         const std::vector<Photon>& photons = data.volume.photons();
-        Color3f beam(0.0f), emitted(0.0f);
+        Color3f beam(0.0f), smallerBeam(0.0f), emitted(0.0f);
         size_t next = 0;
         auto emitUpTo = [&](float t) {
             for (; next < line.emissions.size() && line.emissions[next].t <= t; ++next) {
@@ -301,10 +349,23 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
             const float phase = medium->phase().eval(-line.direction, photon.direction);
             beam += transmittance * photon.power *
                     static_cast<float>(phase / (M_PI * double(r) * double(r)));
+            if constexpr (TwoRadii) {
+                // The photon's offset from the line at its closest point t_i (as the query
+                // measures it, segmentCrossesSphere()).
+                const Vector3f offset = (photon.position - line.origin) - hit.t * line.direction;
+                const double smallerRadius2 = double(r) * double(r) * kSmallerRadiusAreaRatio;
+                if (double(offset.squaredNorm()) < smallerRadius2)
+                    smallerBeam += transmittance * photon.power *
+                                   static_cast<float>(phase / (M_PI * smallerRadius2));
+            }
         }
         emitUpTo(Infinity);
         walkTo(line.end);
-        return beam * static_cast<float>(data.volumePowerScale) + emitted;
+        const float powerScale = static_cast<float>(data.volumePowerScale);
+        if constexpr (TwoRadii)
+            return {beam * powerScale + emitted, smallerBeam * powerScale + emitted};
+        else
+            return {beam * powerScale + emitted, Color3f(0.0f)};
     }
 
     uint64_t m_surfaceCount = 0, m_volumeCount = 0;

@@ -365,6 +365,91 @@ TEST(ErrorEstimateAccuracy, BiasEstimateCoversTheRadiusBiasOfProgressivePhotonMa
     EXPECT_TRUE(twoRadiiTest.withinAccuracy) << twoRadiiTest.message;
 }
 
+std::shared_ptr<Integrator> makeIntegrator(const char* type, const PropertyList& props) {
+    auto integrator = std::static_pointer_cast<Integrator>(
+        ObjectFactory::create(ObjectKind::Integrator, type, props));
+    integrator->activate();
+    return integrator;
+}
+
+// A progressive volumetric photon mapper, fixed radii, or volume radii from the volumeK nearest
+// volume photons when volumeK > 0; next-event estimation on surfaces by default.
+std::shared_ptr<Integrator> progressiveVolumetricPhotonMapper(int photons, float surfaceRadius,
+                                                              float volumeRadius, int volumeK = 0,
+                                                              const char* directLight = "nee") {
+    PropertyList props;
+    props.setString("directLight", directLight);
+    props.setInteger("photonCount", photons);
+    props.setFloat("surfacePhotonRadius", surfaceRadius);
+    props.setFloat("volumePhotonRadius", volumeRadius);
+    if (volumeK > 0) props.setInteger("volumeK", volumeK);
+    props.setBoolean("progressive", true);
+    return makeIntegrator("volumetric_photonmapper", props);
+}
+
+// The small medium scene of the farm tests (a sphere of scattering medium on a floor under an
+// area light), at a small size.
+std::shared_ptr<Scene> smallMediumScene(int width, int height) {
+    SceneOverrides overrides;
+    overrides.imageSize = Vector2i(width, height);
+    return loadScene(ALPHORN_SOURCE_DIR "/tests/integration/scenes/farm_vpm.xml", {}, overrides);
+}
+
+// The volumetric photon mapper's bias estimate: the film's smaller-radius image gathers the
+// surface disks and every photon's beam disk at half their areas. On a medium sphere (sigmaS 1,
+// sigmaA 0.2, radius 0.9; farm_vpm.xml at 32x24, 10,000 photon paths per pass) whose volume
+// radius starts at 0.5 (the surface radius at 0.1, direct light on the floor sampled), the beam
+// estimate's blur dominates the error of 16 passes: against an unbiased volume_path_mis
+// reference of 256 passes (its own noise taken out), over eight seeds, the noise estimate alone
+// is 0.37 of the truth, the noise with the two-radii bias 0.90 (standard error 0.031 in the log),
+// within the stated accuracy. With the beam disks left at full size in the second image (only
+// the surface radius shrinks) it is 0.39 and fails.
+TEST(ErrorEstimateAccuracy, BiasEstimateCoversTheVolumeRadiusBiasOfVolumetricPhotonMapping) {
+    const int width = 32, height = 24;
+    const uint32_t passes = 16, referencePasses = 256;
+    const std::shared_ptr<Scene> scene = smallMediumScene(width, height);
+    scene->setIntegrator(makeIntegrator("volume_path_mis", PropertyList()));
+    RenderSettings settings;
+    settings.seed = 1000;
+    settings.passes = referencePasses;
+    RenderStatus referenceStatus;
+    const std::vector<double> reference =
+        luminances(renderLocal(*scene, settings, {}, nullptr, &referenceStatus), width, height);
+    ASSERT_TRUE(referenceStatus.estimate);
+    const double referenceNoise = referenceStatus.estimate->relativeRmse;
+    scene->setIntegrator(progressiveVolumetricPhotonMapper(10000, 0.1f, 0.5f));
+    std::vector<double> noiseLogRatios, twoRadiiLogRatios;
+    for (uint64_t seed = 1; seed <= 8; ++seed) {
+        settings.seed = seed;
+        settings.passes = passes;
+        RenderStatus status;
+        const FilmBlock film = renderLocal(*scene, settings, {}, nullptr, &status);
+        ASSERT_TRUE(film.keepsSmallerRadius());
+        ASSERT_TRUE(status.estimate && status.estimate->relativeBias);
+        const double measured = trueRelativeRmse(luminances(film, width, height), reference);
+        const double truth =
+            std::sqrt(std::max(0.0, measured * measured - referenceNoise * referenceNoise));
+        const double noise = status.estimate->relativeNoise();
+        const double withTwoRadii = status.estimate->relativeRmse;
+        noiseLogRatios.push_back(std::log(noise / truth));
+        twoRadiiLogRatios.push_back(std::log(withTwoRadii / truth));
+        std::printf("seed %llu: truth %.4f; noise %.4f; bias two radii %.4f (total %.4f)\n",
+                    (unsigned long long)seed, truth, noise, *status.estimate->relativeBias,
+                    withTwoRadii);
+    }
+    const RatioTest noiseTest = testLogRatios(noiseLogRatios);
+    const RatioTest twoRadiiTest = testLogRatios(twoRadiiLogRatios);
+    std::printf("reference noise %.4f\nnoise only: %s\ntwo radii: %s\n", referenceNoise,
+                noiseTest.message.c_str(), twoRadiiTest.message.c_str());
+    EXPECT_FALSE(noiseTest.unbiased)
+        << "the noise alone must miss the truth here: " << noiseTest.message;
+    EXPECT_LT(noiseTest.meanLogRatio, std::log(0.5)) << noiseTest.message;
+    // Within the stated accuracy, not necessarily centred: the sphere's silhouette and the beams
+    // entering it obliquely make the bias fall slower than r² at these radii, which the factor 2
+    // of the two radii does not know (docs/error-estimate.md).
+    EXPECT_TRUE(twoRadiiTest.withinAccuracy) << twoRadiiTest.message;
+}
+
 // The halves are as exact as the image: the same bytes at any thread count and tile size; and a
 // target stops at the same decision point with the same bytes.
 TEST(ErrorEstimate, HalvesAndStoppingPassIgnoreThreadsAndTiles) {
@@ -456,6 +541,65 @@ TEST(ErrorEstimate, TwoRadiiSumsIgnoreThreadsAndTilesAndLeaveTheImageAlone) {
     EXPECT_EQ(twoRadii.serialize().substr(0, imageBytes.size()), imageBytes);
     // ... and the smaller radius's image differs from it (a different gather, not a copy).
     EXPECT_NE(twoRadii.serialize().substr(imageBytes.size()), imageBytes);
+}
+
+// The same for the volumetric photon mapper (fixed radii and volume kNN radii: the smaller image
+// shrinks every photon's beam disk) and for photonmapper's progressive k nearest neighbours (the
+// smaller image counts the photons of a disk of half the area of the shrunk kNN disk): the same
+// bytes at any thread count and tile size, and the image's sums are those of a film without the
+// smaller radius.
+TEST(ErrorEstimate, TwoRadiiOfVolumeAndNearestNeighbourModesIgnoreThreadsAndLeaveTheImageAlone) {
+    const std::shared_ptr<Scene> medium = smallMediumScene(20, 14);
+    const std::shared_ptr<Scene> surface = smallPathTracedScene(20, 14);
+    PropertyList knn;
+    knn.setInteger("photonCount", 2000);
+    knn.setInteger("surfaceK", 8);
+    knn.setBoolean("progressive", true);
+    knn.setString("directLight", "photons");
+    const struct {
+        const char* name;
+        std::shared_ptr<Scene> scene;
+        std::shared_ptr<Integrator> integrator;
+    } cases[] = {
+        {"volumetric_photonmapper, fixed radii", medium,
+         progressiveVolumetricPhotonMapper(1000, 0.1f, 0.3f)},
+        {"volumetric_photonmapper, volumeK", medium,
+         progressiveVolumetricPhotonMapper(1000, 0.1f, 0.5f, 8)},
+        {"photonmapper, surfaceK", surface, makeIntegrator("photonmapper", knn)},
+    };
+    for (const auto& c : cases) {
+        SCOPED_TRACE(c.name);
+        c.scene->setIntegrator(c.integrator);
+        ASSERT_EQ(filmSmallerRadius(*c.scene), SmallerRadius::Kept);
+        std::string firstBytes;
+        for (int threads : {1, 2})
+            for (int tile : {8, 5}) {
+                tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+                RenderSettings settings;
+                settings.seed = 7;
+                settings.passes = 4;
+                settings.tileSize = tile;
+                settings.passesPerUnit = tile == 8 ? 4 : 1;
+                RenderStatus status;
+                const FilmBlock film = renderLocal(*c.scene, settings, {}, nullptr, &status);
+                ASSERT_TRUE(film.keepsSmallerRadius());
+                ASSERT_TRUE(status.estimate && status.estimate->relativeBias);
+                if (firstBytes.empty())
+                    firstBytes = film.serialize();
+                else
+                    EXPECT_EQ(film.serialize(), firstBytes) << threads << " threads, tile " << tile;
+            }
+        const TileGrid grid(*c.scene, 8);
+        const Tile tile = grid.tiles()[3];
+        const auto passData = preparePasses(*c.scene, 7, 0, 3);
+        FilmBlock twoRadii = grid.block(tile);
+        FilmBlock oneRadius = unitBlock(tile, grid.border());
+        ASSERT_TRUE(renderUnit(*c.scene, 7, RenderUnit{0, 3, tile}, passData, twoRadii));
+        ASSERT_TRUE(renderUnit(*c.scene, 7, RenderUnit{0, 3, tile}, passData, oneRadius));
+        const std::string imageBytes = oneRadius.serialize();
+        EXPECT_EQ(twoRadii.serialize().substr(0, imageBytes.size()), imageBytes);
+        EXPECT_NE(twoRadii.serialize().substr(imageBytes.size()), imageBytes);
+    }
 }
 
 // The bias a film's two radii show is the one estimateRelativeBiasTwoRadii finds in them, added

@@ -4,6 +4,8 @@
 # midway and its unit is rendered again, photon passes included, by the other. With a target
 # error the film keeps the smaller radius's image: the bias is estimated and shown, and the farm
 # stops at the same pass with the same bytes as `alphorn render` at any threads and tile size.
+# The same for the volumetric photon mapper (its smaller image shrinks the beam radius too),
+# through these workers and through `alphorn cluster --workers 2`.
 source "$(dirname "$0")/farm_lib.sh"
 
 start_coordinator 127.0.0.1:0 --lease-seconds 1
@@ -63,4 +65,27 @@ bias=$(job_field "$job" error_bias)
 [[ -n $bias ]] && awk -v b="$bias" 'BEGIN { exit !(b > 0) }' || fail "status --json has no positive error_bias ('$bias')"
 "$ALPHORN" status "$job" | grep -q "bias" || fail "'alphorn status' does not show the bias"
 pass "photon target: stops at $stop passes with the same bytes locally (threads 1/2, tiles 64/16) and on the farm; bias $bias shown"
+
+# farm_vpm.xml's volume radius's bias keeps the error above 0.12 past the 4 passes at which its
+# noise alone is below it: the stop depends on the bias the two radii estimate.
+vpm=(--seed 9 --target-error 0.12 --max-passes 64)
+: >"$WORK/local.log"
+render_local "$SCENES/farm_vpm.xml" "$WORK/vpm.exr" "${vpm[@]}" --threads 1
+cp "$WORK/local.log" "$WORK/vpm.log"
+render_local "$SCENES/farm_vpm.xml" "$WORK/vpm_tiles.exr" "${vpm[@]}" --threads 2 --tile 16
+cmp "$WORK/vpm.exr" "$WORK/vpm_tiles.exr" || fail "threads/tile changed the stopped volumetric photon image"
+grep -q "radius's bias" "$WORK/vpm.log" || fail "alphorn render does not show the volume radius's bias"
+stop=$(grep -o "wrote .* (\([0-9]*\) passes" "$WORK/vpm.log" | head -n1 | grep -o "([0-9]*" | tr -d '(')
+[[ -n $stop && $stop -gt 4 && $stop -lt 64 ]] || fail "the vpm target should stop between 4 and 64 passes, stopped at '$stop'"
+job=$("$ALPHORN" submit "$SCENES/farm_vpm.xml" "${vpm[@]}" --tile 32 --passes-per-unit 4 2>/dev/null)
+"$ALPHORN" watch "$job" >/dev/null 2>&1 || fail "the target-error vpm job did not finish"
+"$ALPHORN" fetch "$job" -o "$WORK/farm_vpm.exr" 2>/dev/null || fail "fetch failed"
+cmp "$WORK/vpm.exr" "$WORK/farm_vpm.exr" || fail "the farm's stopped vpm EXR differs from alphorn render"
+[[ $(job_field "$job" passes_done) == "$stop" ]] || fail "the farm stopped the vpm job at $(job_field "$job" passes_done) passes, not $stop"
+bias=$(job_field "$job" error_bias)
+[[ -n $bias ]] && awk -v b="$bias" 'BEGIN { exit !(b > 0) }' || fail "the vpm job's status has no positive error_bias ('$bias')"
+"$ALPHORN" cluster --workers 2 --threads 1 --render "$SCENES/farm_vpm.xml" "${vpm[@]}" \
+    -o "$WORK/cluster_vpm.exr" >"$WORK/cluster_vpm.log" 2>&1 || fail "alphorn cluster failed on the vpm scene"
+cmp "$WORK/vpm.exr" "$WORK/cluster_vpm.exr" || fail "alphorn cluster's stopped vpm EXR differs from alphorn render"
+pass "vpm target: stops at $stop passes with the same bytes locally (threads 1/2, tiles 64/16), on the farm and on alphorn cluster --workers 2; bias $bias shown"
 echo "PASS"

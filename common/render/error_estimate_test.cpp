@@ -1,8 +1,8 @@
 // The error estimate from the film's halves by pass parity: its arithmetic on hand-made films,
 // its decision points, its agreement with the true error of a path-traced image (against an
 // independent long reference) and of a sobol render (against the spread over seeds), and that
-// the halves and the stopping pass depend on nothing but
-// the scene, seed and target (threads and tiles change no byte).
+// the halves and the stopping pass depend on nothing but the scene, seed and target (threads and
+// tiles change no byte).
 #include "common/render/error_estimate.h"
 
 #include "common/integrator/integrator.h"

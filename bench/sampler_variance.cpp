@@ -16,9 +16,16 @@
 // alike; "time" is the render time per pass relative to independent.
 // stratified is given sampleCount = spp, the count it stratifies over.
 //
+// "est/true" checks the error estimate (error_estimate.h) each sampler's film gives: the relative
+// RMSE estimated from the film's halves by pass parity over the true one (the luminance's RMSE
+// against the reference, its noise taken out, over the reference's mean luminance), the geometric
+// mean over the seeds. It is near 1 when the halves are independent replicates of the image; a
+// sampler whose halves are complementary strata shows a ratio that grows with spp.
+//
 // usage: bench_sampler_variance [referencePasses=1024] [crop=128] [seeds=2]
 //                               [scenes=shadow,cbox,fog,caustic] [SPP ...] (default SPP: 16 64)
 #include "bench/timing.h"
+#include "common/render/error_estimate.h"
 #include "common/render/unit.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
@@ -91,23 +98,41 @@ std::vector<double> pixels(const FilmBlock& block, const Tile& tile) {
     return rgb;
 }
 
+// Per pixel, from pixels()'s RGB triples, with Color3f::luminance()'s weights.
+std::vector<double> luminances(const std::vector<double>& rgb) {
+    std::vector<double> values;
+    for (size_t i = 0; i + 2 < rgb.size(); i += 3)
+        values.push_back(0.212671 * rgb[i] + 0.715160 * rgb[i + 1] + 0.072169 * rgb[i + 2]);
+    return values;
+}
+
 struct Reference {
     std::vector<double> mean;
     double noise = 0;  // the mean squared error the reference's own noise adds
+    // The same for the luminance, and its mean over the crop (the error estimate's units).
+    std::vector<double> luminanceMean;
+    double luminanceNoise = 0, meanLuminance = 0;
 };
 
 Reference renderReference(const Scene& scene, const Tile& tile, uint32_t passes) {
-    std::vector<double> sum, sum2;
+    std::vector<double> sum, sum2, luminanceSum, luminanceSum2;
     for (uint32_t pass = 0; pass < passes; ++pass) {
         FilmBlock block = makeUnitBlock(scene, tile);
         const auto data = preparePasses(scene, 1000, pass, pass + 1);
         renderUnit(scene, 1000, RenderUnit{pass, pass + 1, tile}, data, block);
         const std::vector<double> image = pixels(block, tile);
+        const std::vector<double> luminance = luminances(image);
         sum.resize(image.size(), 0.0);
         sum2.resize(image.size(), 0.0);
+        luminanceSum.resize(luminance.size(), 0.0);
+        luminanceSum2.resize(luminance.size(), 0.0);
         for (size_t i = 0; i < image.size(); ++i) {
             sum[i] += image[i];
             sum2[i] += image[i] * image[i];
+        }
+        for (size_t i = 0; i < luminance.size(); ++i) {
+            luminanceSum[i] += luminance[i];
+            luminanceSum2[i] += luminance[i] * luminance[i];
         }
     }
     Reference r;
@@ -115,6 +140,13 @@ Reference renderReference(const Scene& scene, const Tile& tile, uint32_t passes)
         const double mean = sum[i] / passes;
         r.mean.push_back(mean);
         r.noise += (sum2[i] - passes * mean * mean) / (passes - 1) / passes / sum.size();
+    }
+    for (size_t i = 0; i < luminanceSum.size(); ++i) {
+        const double mean = luminanceSum[i] / passes;
+        r.luminanceMean.push_back(mean);
+        r.meanLuminance += mean / luminanceSum.size();
+        r.luminanceNoise +=
+            (luminanceSum2[i] - passes * mean * mean) / (passes - 1) / passes / luminanceSum.size();
     }
     return r;
 }
@@ -161,14 +193,14 @@ int main(int argc, char** argv) {
         const Reference reference = renderReference(*referenceScene, tile, referencePasses);
         std::printf("\n%s: reference %.1f s, its noise (MSE) %.3g\n", sceneCase.name,
                     bench::seconds(start), reference.noise);
-        std::printf("  %4s  %-12s %10s %12s %12s %10s %8s %12s\n", "spp", "sampler", "RMSE", "MSE",
-                    "MSE - ref", "MSE ratio", "time", "var/spp");
+        std::printf("  %4s  %-12s %10s %12s %12s %10s %8s %12s %9s\n", "spp", "sampler", "RMSE",
+                    "MSE", "MSE - ref", "MSE ratio", "time", "var/spp", "est/true");
         for (uint32_t spp : spps) {
             std::vector<std::shared_ptr<Scene>> variants;
             for (const char* sampler : samplers)
                 variants.push_back(loadWithSampler(path, sampler, int(spp)));
             std::vector<double> mse(variants.size(), 0.0), time(variants.size(), 0.0),
-                iidMse(variants.size(), 0.0);
+                iidMse(variants.size(), 0.0), logEstimateOverTruth(variants.size(), 0.0);
             for (const auto& scene : variants) {  // warm-up, untimed: first-touch costs
                 FilmBlock block = makeUnitBlock(*scene, tile);
                 renderUnit(*scene, 999, RenderUnit{0, 1, tile}, preparePasses(*scene, 999, 0, 1),
@@ -205,6 +237,21 @@ int main(int argc, char** argv) {
                         sum += e * e;
                     }
                     mse[s] += sum / image.size() / seeds;
+                    const std::vector<double> luminance = luminances(image);
+                    double luminanceSquaredError = 0;
+                    for (size_t i = 0; i < luminance.size(); ++i) {
+                        const double e = luminance[i] - reference.luminanceMean[i];
+                        luminanceSquaredError += e * e;
+                    }
+                    const double truth =
+                        std::sqrt(std::max(0.0, luminanceSquaredError / luminance.size() -
+                                                    reference.luminanceNoise)) /
+                        reference.meanLuminance;
+                    const auto estimate = estimateError(blocks[s], tile, spp);
+                    logEstimateOverTruth[s] +=
+                        (estimate && truth > 0 ? std::log(estimate->relativeRmse / truth)
+                                               : std::nan("")) /
+                        seeds;
                     // What the error would be if the passes were independent: the variance of a
                     // pass's pixel values over the spp (a check on the reference and on
                     // independent, whose passes are independent).
@@ -218,15 +265,18 @@ int main(int argc, char** argv) {
             }
             for (size_t s = 0; s < variants.size(); ++s) {
                 const double corrected = mse[s] - reference.noise;
-                std::printf("  %4u  %-12s %10.4g %12.4g %12.4g %10.2f %8.2f %12.4g\n", spp,
+                std::printf("  %4u  %-12s %10.4g %12.4g %12.4g %10.2f %8.2f %12.4g %9.2f\n", spp,
                             samplers[s], std::sqrt(mse[s]), mse[s], corrected,
-                            (mse[0] - reference.noise) / corrected, time[s] / time[0], iidMse[s]);
+                            (mse[0] - reference.noise) / corrected, time[s] / time[0], iidMse[s],
+                            std::exp(logEstimateOverTruth[s]));
             }
         }
     }
     std::printf(
         "\nMSE ratio = (MSE - ref) of independent / (MSE - ref) of the sampler: above 1, "
         "the sampler has less error at equal spp. time = render time / independent's. var/spp = "
-        "the MSE independent passes with the per-pass variance seen would give.\n");
+        "the MSE independent passes with the per-pass variance seen would give. est/true = the "
+        "error estimate from the film's halves / the true relative RMSE (luminance), geometric "
+        "mean over the seeds.\n");
     return 0;
 }

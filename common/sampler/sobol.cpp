@@ -1,21 +1,33 @@
 // <sampler type="sobol">: Owen-scrambled Sobol points, one scrambled sequence per stream and draw.
 //   sampleCount  samples per pixel (default 1); best at powers of two, where every draw's
-//                points form a stratified net
-// The pass is the sample index, so there is no sample count to commit to in advance: any prefix
-// of passes is a valid render, and pass p is the same numbers on every worker. Following Burley,
-// "Practical Hash-based Owen Scrambling" (JCGT 2020), every draw gets its own low-dimensional
-// sequence instead of sharing one high-dimensional one:
+//                points form stratified nets
+// There is no sample count to commit to in advance: any prefix of passes is a valid render, and
+// pass p is the same numbers on every worker. The passes form two replicates, one per pass
+// parity: pass p is sample index p >> 1 of replicate p & 1, and each replicate has scrambles of
+// its own. The film keeps its sums in two halves by pass parity, and the error estimate
+// (error_estimate.h) reads the image's error from their difference, which is right only when
+// the halves are independent estimates of the same image; with the pass as one sequence's sample
+// index, the even and the odd passes would be complementary strata (opposite halves of every
+// draw's range), whose difference tends to that of two half-domain integrals, not to the error:
+// the estimate came out 1.3x to 2.2x the true error on a soft shadow from 16 to 1024 passes
+// (docs/error-estimate.md). The image is the mean of two independent randomised quasi-Monte
+// Carlo estimates, which costs some of the nets' gain. Following Burley, "Practical
+// Hash-based Owen Scrambling" (JCGT 2020), every draw gets its own low-dimensional sequence
+// instead of sharing one high-dimensional one:
 //   - a 1D draw is the first Sobol dimension (van der Corput), a 2D draw the first two Sobol
-//     dimensions, a (0,2)-sequence: the first 2^k passes of a 2D draw put one point in every
+//     dimensions, a (0,2)-sequence: the first 2^k samples of a 2D draw put one point in every
 //     cell of each 2^a x 2^(k-a) grid;
 //   - the sample index is Owen-scrambled (bits reversed) with a key from (seed, stream,
-//     dimension), which shuffles the sequence in aligned blocks of 2^k and so keeps those nets,
-//     while different draws of one stream see unrelated orders (this decorrelates the dimensions
-//     as padding does, with no direction-number table beyond the first two dimensions);
+//     dimension, replicate), which shuffles the sequence in aligned blocks of 2^k and so keeps
+//     those nets: each replicate's aligned blocks of 2^k of its own passes (passes of one parity)
+//     are (0,k,2)-nets, while different draws of one stream see unrelated orders (this
+//     decorrelates the dimensions as padding does, with no direction-number table beyond the
+//     first two dimensions);
 //   - each coordinate is Owen-scrambled with its own key, which makes every point uniform on
 //     [0,1)^2 and decorrelates neighbouring pixels.
 // Owen scrambling is approximated by a hash in which each output bit depends only on the bits
-// above it (the Laine-Karras construction). Passes beyond 2^32 start a new set of scrambles.
+// above it (the Laine-Karras construction). Sample indices beyond 2^32 (passes beyond 2^33)
+// start a new set of scrambles.
 #include "common/sampler/sampler.h"
 
 namespace alphorn {
@@ -112,11 +124,13 @@ class Sobol : public Sampler {
 
     void startStream(uint64_t seed, uint64_t pass, uint64_t stream,
                      StreamPurpose purpose) override {
-        // The pass is the sample index: it must not enter the key, except for the 2^32-pass
-        // block it belongs to.
-        m_streamKey =
-            mix64(seed ^ mix64(stream ^ mix64(static_cast<uint64_t>(purpose) ^ mix64(pass >> 32))));
-        m_reversedIndex = reverseBits(static_cast<uint32_t>(pass));
+        // Pass p is sample `index` of replicate p & 1. The replicate enters the key, so the two
+        // are independently scrambled; the index must not, except for the 2^32-sample block it
+        // belongs to.
+        const uint64_t replicate = pass & 1u, index = pass >> 1;
+        m_streamKey = mix64(seed ^ mix64(stream ^ mix64(static_cast<uint64_t>(purpose) ^
+                                                        mix64((index >> 32) << 1 | replicate))));
+        m_reversedIndex = reverseBits(static_cast<uint32_t>(index));
         m_dimension = 0;
     }
 

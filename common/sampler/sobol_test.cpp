@@ -118,10 +118,14 @@ TEST(Sobol, ProjectionsAndPairsOfDrawsAreUniformChiSquare) {
 }
 
 // Owen scrambling makes two points of a net independent below the digits their position in the
-// net fixes: passes 2m and 2m + 1 fall in opposite halves, and within them (frac(2x)) they are
-// independent; passes 4m + a and 4m + a + 2 are independent in frac(4x) (chi-square of the joint
-// histogram over 16384 pixels). Shuffling the index alone, without scrambling the values, would
-// keep the other tests' marginals uniform but make these fine digits equal.
+// net fixes. A replicate's (one parity's) samples 2m and 2m + 1, passes 4m + h and 4m + h + 2,
+// fall in opposite halves, and within them (frac(2x)) they are independent; its samples 4m + a
+// and 4m + a + 2, passes 8m + 2a + h and 8m + 2a + h + 4, are independent in frac(4x)
+// (chi-square of the joint histogram over 16384 pixels). Shuffling the index alone, without
+// scrambling the values, would keep the other tests' marginals uniform but make these fine
+// digits equal. Passes of the two parities belong to independently scrambled replicates, so
+// passes 2m and 2m + 1 are independent in every digit (frac(x) = x): the film's halves by pass
+// parity are independent estimates, as the error estimate assumes.
 TEST(Sobol, PointsOfOneNetAreIndependentBelowTheirSharedDigits) {
     auto sampler = make("sobol");
     const int streams = 16384, side = 16;
@@ -130,8 +134,8 @@ TEST(Sobol, PointsOfOneNetAreIndependentBelowTheirSharedDigits) {
     const struct {
         int first, second;
         float scale;
-    } pairs[] = {{0, 1, 2}, {6, 7, 2}, {0, 2, 4}, {5, 7, 4}};
-    const double alpha = stats::sidakAlpha(0.01, 4 * 3);
+    } pairs[] = {{0, 2, 2}, {13, 15, 2}, {0, 4, 4}, {10, 14, 4}, {0, 1, 1}, {6, 7, 1}};
+    const double alpha = stats::sidakAlpha(0.01, 6 * 3);
     for (const auto& pair : pairs) {
         std::vector<Point2f> a, bx, by;
         for (int stream = 0; stream < streams; ++stream) {
@@ -159,31 +163,35 @@ bool isNet(const std::vector<Point2f>& points, int log2Count) {
     return true;
 }
 
-// The first 2^k passes of a 2D draw are a (0,k,2)-net: one point in every cell of every
-// 2^a x 2^(k-a) grid; so are later aligned blocks of 2^k passes (passes 3 * 2^k ..). A 1D draw
-// puts one point in each of 2^k strata.
-TEST(Sobol, AlignedBlocksOfPowerOfTwoPassesAreZeroTwoNets) {
+// The first 2^k samples of a replicate's 2D draw (its passes: those of one parity) are a
+// (0,k,2)-net: one point in every cell of every 2^a x 2^(k-a) grid; so are later aligned blocks of
+// 2^k of its samples (samples 3 * 2^k ..). A 1D draw puts one point in each of 2^k strata.
+TEST(Sobol, AlignedBlocksOfPowerOfTwoPassesOfOneParityAreZeroTwoNets) {
     auto sampler = make("sobol");
     for (uint64_t stream : {0ull, 1ull, 987654321ull})
-        for (int k = 0; k <= 10; ++k)
-            for (uint64_t block : {0ull, 3ull}) {
-                const uint64_t n = uint64_t(1) << k;
-                std::vector<Point2f> b, e, far;
-                std::set<int> strataA, strataD;
-                for (uint64_t pass = block * n; pass < (block + 1) * n; ++pass) {
-                    const Draws d = drawPass(*sampler, 7, pass, stream);
-                    b.push_back(d.b);
-                    e.push_back(d.e);
-                    far.push_back(d.far);
-                    strataA.insert(int(d.a * n));
-                    strataD.insert(int(d.d * n));
+        for (uint64_t replicate : {0ull, 1ull})
+            for (int k = 0; k <= 10; ++k)
+                for (uint64_t block : {0ull, 3ull}) {
+                    const uint64_t n = uint64_t(1) << k;
+                    std::vector<Point2f> b, e, far;
+                    std::set<int> strataA, strataD;
+                    for (uint64_t sample = block * n; sample < (block + 1) * n; ++sample) {
+                        const Draws d = drawPass(*sampler, 7, 2 * sample + replicate, stream);
+                        b.push_back(d.b);
+                        e.push_back(d.e);
+                        far.push_back(d.far);
+                        strataA.insert(int(d.a * n));
+                        strataD.insert(int(d.d * n));
+                    }
+                    const std::string where = "k " + std::to_string(k) + " stream " +
+                                              std::to_string(stream) + " replicate " +
+                                              std::to_string(replicate);
+                    EXPECT_TRUE(isNet(b, k)) << where;
+                    EXPECT_TRUE(isNet(e, k)) << where;
+                    EXPECT_TRUE(isNet(far, k)) << where;
+                    EXPECT_EQ(strataA.size(), n) << where;
+                    EXPECT_EQ(strataD.size(), n) << where;
                 }
-                EXPECT_TRUE(isNet(b, k)) << "k " << k << " stream " << stream;
-                EXPECT_TRUE(isNet(e, k)) << "k " << k << " stream " << stream;
-                EXPECT_TRUE(isNet(far, k)) << "k " << k << " stream " << stream;
-                EXPECT_EQ(strataA.size(), n);
-                EXPECT_EQ(strataD.size(), n);
-            }
 }
 
 // Same (seed, pass, stream, dimension), same number: alone, in another order, in a clone, on
@@ -213,7 +221,7 @@ TEST(Sobol, IsAPureFunctionOfSeedPassStreamAndDimension) {
         same += base.a == drawPass(*sampler, 6, pass, 3).a;
         same += base.a == drawPass(*sampler, 5, pass, 4).a;
         same += base.a == drawPass(*sampler, 5, pass, 3, StreamPurpose::Photon).a;
-        same += base.a == drawPass(*sampler, 5, pass + (uint64_t(1) << 32), 3).a;
+        same += base.a == drawPass(*sampler, 5, pass + (uint64_t(1) << 33), 3).a;
     }
     EXPECT_EQ(same, 0);
 }
@@ -221,7 +229,7 @@ TEST(Sobol, IsAPureFunctionOfSeedPassStreamAndDimension) {
 // The numbers themselves are pinned: every sobol image's bytes depend on them, so a change meant
 // only to make the sampler faster must leave this checksum of 64 streams x 16 passes of draws
 // (drawPass's 1D and 2D mix, and draws at dimension 40) as it is. A deliberate change of the
-// numbers updates the constant and says so.
+// numbers updates the constant and says so (last: passes split into two replicates by parity).
 TEST(Sobol, DrawsArePinnedByAChecksum) {
     auto sampler = make("sobol");
     uint64_t checksum = 0xcbf29ce484222325ULL;
@@ -236,7 +244,7 @@ TEST(Sobol, DrawsArePinnedByAChecksum) {
             add(d.a), add(d.b.x()), add(d.b.y()), add(d.c), add(d.d), add(d.e.x()), add(d.e.y());
             add(d.far.x()), add(d.far.y());
         }
-    EXPECT_EQ(checksum, 0x2c8819e2fcc38af2ULL);
+    EXPECT_EQ(checksum, 0x538d79cf9a4afda8ULL);
 }
 
 // The estimate of an integral from 16 passes of a pixel is unbiased (t-test over independent

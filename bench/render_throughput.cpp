@@ -71,14 +71,13 @@ RayMix measureRayMix(const Scene& scene) {
     return {(rays - shadowRays) / samples, shadowRays / samples};
 }
 
-// Points on the scene's area emitters (empty when it has none), the targets of the baseline's
+// Points on the scene's emitters (a delta light's is its position), the targets of the baseline's
 // shadow rays; sampled before timing so that the baseline pays only for the rays.
 std::vector<Point3f> emitterPoints(const Scene& scene) {
     std::vector<Point3f> points;
     Rng rng(2, 0, 0, StreamPurpose::Test);
     const Point3f centre = scene.accel().bounds().center();
     for (const auto& emitter : scene.emitters()) {
-        if (emitter->isDelta()) continue;
         for (int i = 0; i < 256; ++i) {
             EmitterQueryRecord rec(centre);
             emitter->sample(rec, Point2f(rng.nextFloat(), rng.nextFloat()));
@@ -137,10 +136,14 @@ RawRays traceRawEmbree(const Scene& scene, uint32_t passes, const Walk& walk,
                                 targets.size() - 1, size_t(rng.nextFloat() * targets.size()))];
                             const Vector3f toTarget = target - o;
                             const float distance = toTarget.norm();
-                            RTCRay shadow = makeRayHit(o, toTarget / distance).ray;
-                            shadow.tfar = distance - Epsilon;
-                            rtcOccluded1(embree, &context, &shadow);
-                            ++count.shadowRays;
+                            // None from a hit at the target itself (nor does a light sample at
+                            // the shading point give one).
+                            if (distance > 2.0f * Epsilon) {
+                                RTCRay shadow = makeRayHit(o, toTarget / distance).ray;
+                                shadow.tfar = distance - Epsilon;
+                                rtcOccluded1(embree, &context, &shadow);
+                                ++count.shadowRays;
+                            }
                         }
                         if (depth + 1 > budget) break;
                         Vector3f n(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
@@ -162,20 +165,29 @@ RawRays traceRawEmbree(const Scene& scene, uint32_t passes, const Walk& walk,
 }
 
 // The walk whose rays per sample match `target`: bounce rays that leave the scene end a path
-// early, so the budget is raised until the closest hits per sample match (a few one-pass runs),
-// and the shadow-ray probability is the target's shadow rays over the hits.
+// early, so the bounce budget is raised until the closest hits per sample match (secant steps of
+// one-pass runs; in an open scene the printed counts show how near it came), and the shadow-ray
+// probability is the target's shadow rays over the hits.
 Walk calibrateWalk(const Scene& scene, const RayMix& target, const std::vector<Point3f>& targets) {
     const Vector2i size = scene.camera()->outputSize();
     const double samples = double(size.x()) * size.y();
     Walk walk{std::max(0.0, target.closestHits - 1.0), 0.0};
+    double previousBounces = 0.0, previousClosestHits = 0.0;
     for (int iteration = 0; iteration < 12; ++iteration) {
         const RawRays rays = traceRawEmbree(scene, 1, walk, {});
         const double closestHits = rays.closestHits / samples;
         if (rays.hits > 0 && !targets.empty())
             walk.shadowPerHit = std::min(1.0, target.shadowRays / (rays.hits / samples));
         if (std::abs(closestHits - target.closestHits) < 0.005 * target.closestHits) break;
-        // A longer budget adds fewer rays than its length (paths leave the scene): overshoot.
-        walk.bounces = std::max(0.0, walk.bounces + 1.5 * (target.closestHits - closestHits));
+        // Rays added per unit of budget: at most one, fewer the more paths leave the scene.
+        double slope = 1.0;
+        if (iteration > 0 && walk.bounces != previousBounces)
+            slope = (closestHits - previousClosestHits) / (walk.bounces - previousBounces);
+        slope = std::clamp(slope, 0.02, 1.0);
+        previousBounces = walk.bounces;
+        previousClosestHits = closestHits;
+        walk.bounces =
+            std::clamp(walk.bounces + (target.closestHits - closestHits) / slope, 0.0, 1000.0);
     }
     return walk;
 }

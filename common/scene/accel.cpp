@@ -1,4 +1,5 @@
 #include "common/scene/accel.h"
+#include "common/scene/accel_counters.h"
 
 #include "common/core/error.h"
 
@@ -7,9 +8,14 @@
 namespace alphorn {
 
 static thread_local uint64_t t_rayCount = 0;
+static thread_local uint64_t t_shadowRayCount = 0;
 
 uint64_t raysTracedByThisThread() {
     return t_rayCount;
+}
+
+uint64_t shadowRaysTracedByThisThread() {
+    return t_shadowRayCount;
 }
 
 RTCDevice newEmbreeDevice() {
@@ -100,6 +106,7 @@ bool Accel::intersect(const Ray3f& ray, Intersection& its) const {
 
 bool Accel::occluded(const Ray3f& ray) const {
     ++t_rayCount;
+    ++t_shadowRayCount;
     if (m_meshes.empty()) return false;
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);

@@ -5,6 +5,7 @@
 #include "common/scene/accel.h"
 
 #include "common/photon/sphere_bvh.h"
+#include "common/scene/accel_counters.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
 
@@ -71,6 +72,22 @@ TEST(AccelThreads, ALoadedSceneLeavesAllCoresToARenderWithoutALimit) {
     LoadedScene loaded;
     EXPECT_EQ(allowedParallelism(), size_t(tbb::info::default_concurrency()));
     EXPECT_EQ(tbb::this_task_arena::max_concurrency(), tbb::info::default_concurrency());
+}
+
+// The throughput benchmark splits the renderer's rays by kind: shadow rays are counted apart,
+// and among all rays, closest hits are not counted as shadow rays.
+TEST(AccelRayCounts, ShadowRaysAreCountedApartFromClosestHits) {
+    const LoadedScene loaded;
+    const Accel& accel = loaded.scene->accel();
+    const Ray3f ray(Point3f(0.0f, 0.9f, 0.0f), Vector3f(0.0f, -1.0f, 0.0f));
+    const uint64_t raysBefore = raysTracedByThisThread();
+    const uint64_t shadowBefore = shadowRaysTracedByThisThread();
+    Intersection its;
+    accel.intersect(ray, its);
+    accel.intersect(ray, its);
+    accel.occluded(ray);
+    EXPECT_EQ(raysTracedByThisThread() - raysBefore, 3u);
+    EXPECT_EQ(shadowRaysTracedByThisThread() - shadowBefore, 1u);
 }
 
 }  // namespace

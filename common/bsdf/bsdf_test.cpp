@@ -42,6 +42,28 @@ bool equal(const Color3f& a, const Color3f& b) {
     return (a == b).all();
 }
 
+// Glass of index 1.5 in air met from outside and from inside at angles from normal to grazing:
+// the direction towards the camera, the indices on each side and the reference Fresnel
+// reflectance.
+struct GlassIncidence {
+    float degrees;
+    bool inside;
+    Vector3f wi;
+    double n1, n2, reflectance;
+};
+std::vector<GlassIncidence> glassIncidences() {
+    std::vector<GlassIncidence> cases;
+    for (float deg : {0.0f, 20.0f, 40.0f, 60.0f, 85.0f}) {
+        for (bool inside : {false, true}) {
+            Vector3f wi = directionAt(deg);
+            if (inside) wi.z() = -wi.z();
+            const double n1 = inside ? 1.5 : 1.0, n2 = inside ? 1.0 : 1.5;
+            cases.push_back({deg, inside, wi, n1, n2, fresnelReference(degToRad(deg), n1, n2)});
+        }
+    }
+    return cases;
+}
+
 TEST(Fresnel, NormalIncidenceMatchesClosedForm) {
     const float n1 = 1.000277f, n2 = 1.5046f;
     const float expected = ((n1 - n2) / (n1 + n2)) * ((n1 - n2) / (n1 + n2));
@@ -109,38 +131,32 @@ TEST(Dielectric, ReflectRefractProbabilitiesAndDirections) {
     props.setFloat("intIOR", 1.5f);
     props.setFloat("extIOR", 1.0f);
     auto glass = makeBSDF("dielectric", props);
-    for (float deg : {0.0f, 20.0f, 40.0f, 60.0f, 85.0f}) {
-        for (bool inside : {false, true}) {
-            Vector3f wi = directionAt(deg);
-            if (inside) wi.z() = -wi.z();
-            const double n1 = inside ? 1.5 : 1.0, n2 = inside ? 1.0 : 1.5;
-            const double F = fresnelReference(degToRad(deg), n1, n2);
-            const int n = 20000;
-            int reflected = 0, refracted = 0;
-            for (int i = 0; i < n; ++i) {
-                BSDFQueryRecord rec(wi);
-                const Color3f w = glass->sample(rec, Point2f((i + 0.5f) / n, 0.37f));
-                ASSERT_TRUE(w.allFinite());
-                ASSERT_NEAR(rec.wo.norm(), 1.0f, 1e-5f);
-                EXPECT_EQ(rec.measure, Measure::Discrete);
-                if (rec.wo.z() * wi.z() > 0.0f) {
-                    ++reflected;
-                    EXPECT_TRUE(equal(w, Color3f(1.0f)));
-                    EXPECT_NEAR((rec.wo - Vector3f(-wi.x(), -wi.y(), wi.z())).norm(), 0.0f, 1e-6f);
-                } else {
-                    ++refracted;
-                    const float eta = float(n2 / n1);
-                    EXPECT_NEAR(rec.eta, eta, 1e-6f);
-                    EXPECT_NEAR(w.r(), 1.0f / (eta * eta), 1e-5f);
-                    // Snell: n1 sin(theta_i) = n2 sin(theta_t), in the plane of incidence.
-                    EXPECT_NEAR(n1 * Frame::sinTheta(wi), n2 * Frame::sinTheta(rec.wo), 1e-5);
-                    EXPECT_NEAR(rec.wo.x() * wi.y() - rec.wo.y() * wi.x(), 0.0f, 1e-6f);
-                    EXPECT_LT(rec.wo.x() * wi.x() + rec.wo.y() * wi.y(), 1e-6f);
-                }
+    for (const auto& [deg, inside, wi, n1, n2, F] : glassIncidences()) {
+        const int n = 20000;
+        int reflected = 0, refracted = 0;
+        for (int i = 0; i < n; ++i) {
+            BSDFQueryRecord rec(wi);
+            const Color3f w = glass->sample(rec, Point2f((i + 0.5f) / n, 0.37f));
+            ASSERT_TRUE(w.allFinite());
+            ASSERT_NEAR(rec.wo.norm(), 1.0f, 1e-5f);
+            EXPECT_EQ(rec.measure, Measure::Discrete);
+            if (rec.wo.z() * wi.z() > 0.0f) {
+                ++reflected;
+                EXPECT_TRUE(equal(w, Color3f(1.0f)));
+                EXPECT_NEAR((rec.wo - Vector3f(-wi.x(), -wi.y(), wi.z())).norm(), 0.0f, 1e-6f);
+            } else {
+                ++refracted;
+                const float eta = float(n2 / n1);
+                EXPECT_NEAR(rec.eta, eta, 1e-6f);
+                EXPECT_NEAR(w.r(), 1.0f / (eta * eta), 1e-5f);
+                // Snell: n1 sin(theta_i) = n2 sin(theta_t), in the plane of incidence.
+                EXPECT_NEAR(n1 * Frame::sinTheta(wi), n2 * Frame::sinTheta(rec.wo), 1e-5);
+                EXPECT_NEAR(rec.wo.x() * wi.y() - rec.wo.y() * wi.x(), 0.0f, 1e-6f);
+                EXPECT_LT(rec.wo.x() * wi.x() + rec.wo.y() * wi.y(), 1e-6f);
             }
-            EXPECT_EQ(reflected + refracted, n);
-            EXPECT_NEAR(reflected / double(n), F, 2.0 / n) << deg << (inside ? " inside" : "");
         }
+        EXPECT_EQ(reflected + refracted, n);
+        EXPECT_NEAR(reflected / double(n), F, 2.0 / n) << deg << (inside ? " inside" : "");
     }
 }
 
@@ -152,29 +168,23 @@ TEST(Dielectric, DeltaLobesAreSampleChoicesWithTheirChance) {
     props.setFloat("intIOR", 1.5f);
     props.setFloat("extIOR", 1.0f);
     auto glass = makeBSDF("dielectric", props);
-    for (float deg : {0.0f, 20.0f, 40.0f, 60.0f, 85.0f}) {
-        for (bool inside : {false, true}) {
-            Vector3f wi = directionAt(deg);
-            if (inside) wi.z() = -wi.z();
-            const double n1 = inside ? 1.5 : 1.0, n2 = inside ? 1.0 : 1.5;
-            const double F = fresnelReference(degToRad(deg), n1, n2);
-            DeltaLobe lobes[BSDF::kMaxDeltaLobes];
-            const int count = glass->deltaLobes(BSDFQueryRecord(wi), lobes);
-            BSDFQueryRecord reflected(wi), refracted(wi);
-            glass->sample(reflected, Point2f(0.0f, 0.5f));
-            const Color3f refractedWeight = glass->sample(refracted, Point2f(0.99999f, 0.5f));
-            if (F >= 1.0) {
-                ASSERT_EQ(count, 1) << deg;
-            } else {
-                ASSERT_EQ(count, 2) << deg << (inside ? " inside" : "");
-                EXPECT_EQ(lobes[1].wo, refracted.wo);
-                EXPECT_EQ(lobes[1].eta, refracted.eta);
-                EXPECT_NEAR(lobes[1].weight.r(), (1.0 - F) * refractedWeight.r(), 1e-6);
-            }
-            EXPECT_EQ(lobes[0].wo, reflected.wo);
-            EXPECT_EQ(lobes[0].eta, 1.0f);
-            EXPECT_NEAR(lobes[0].weight.r(), F, 1e-6) << deg;
+    for (const auto& [deg, inside, wi, n1, n2, F] : glassIncidences()) {
+        DeltaLobe lobes[BSDF::kMaxDeltaLobes];
+        const int count = glass->deltaLobes(BSDFQueryRecord(wi), lobes);
+        BSDFQueryRecord reflected(wi), refracted(wi);
+        glass->sample(reflected, Point2f(0.0f, 0.5f));
+        const Color3f refractedWeight = glass->sample(refracted, Point2f(0.99999f, 0.5f));
+        if (F >= 1.0) {
+            ASSERT_EQ(count, 1) << deg;
+        } else {
+            ASSERT_EQ(count, 2) << deg << (inside ? " inside" : "");
+            EXPECT_EQ(lobes[1].wo, refracted.wo);
+            EXPECT_EQ(lobes[1].eta, refracted.eta);
+            EXPECT_NEAR(lobes[1].weight.r(), (1.0 - F) * refractedWeight.r(), 1e-6);
         }
+        EXPECT_EQ(lobes[0].wo, reflected.wo);
+        EXPECT_EQ(lobes[0].eta, 1.0f);
+        EXPECT_NEAR(lobes[0].weight.r(), F, 1e-6) << deg;
     }
     // Beyond the critical angle from inside: reflection only.
     Vector3f wi = directionAt(60.0f);

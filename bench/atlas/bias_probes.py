@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """The two bias estimates of common/render/error_estimate.h against the atlas's truth, on the
 progressive photon mappers' series of cbox, caustic, sds and stage_crop, and the film's own
-two-radii estimate of the volumetric photon mapper on medium spheres and the spotlight in fog.
+two-radii estimate of the volumetric photon mapper on medium spheres and the spotlight in fog
+and of vcm on cbox, caustic and sds.
 
     /usr/bin/python3 bench/atlas/bias_probes.py REFERENCE_DIR [--build build] [--scenes A,B]
     /usr/bin/python3 bench/atlas/bias_probes.py --order [--build build] [--scenes A,B]
@@ -33,12 +34,21 @@ truth; at first radii r/sqrt 2 it is 2^(-p/2) times that. So the ratio of the es
 renders whose radii differ by sqrt 2 is 2^(-p/2): 1/2 for p = 2, the order the estimate assumes
 (then it is exact), 0.71 for p = 1. Printed per scene: both estimates, their ratio and p.
 
+vcm (VCM_SCENES) keeps the smaller radius's image in its film too (every merge within
+r_i / sqrt 2, weighted as in the image): its rows come from the film's own estimate, as the
+volume scenes'. The merge radius is the photon mapper series' first radius, at vcm's default
+alpha 0.75, so that its bias stands out at 16-256 passes (the atlas's vcm runs at the scene
+diagonal / 500, where merging is a small share of the error).
+
 Where the reference is itself a progressive photon map (caustic, sds, and stage_crop, whose pin
 spot reaches the crop only through the disco ball's mirror facets, which path tracing cannot
 follow to a delta light) it shares the bias left at its own pass count: against it only the
 part of the bias that falls between n passes and the reference's N is measurable,
 B(n) - B(N) = B(n) (1 - mean_{i<N} r_i^2 / mean_{i<n} r_i^2). The predictions are compared with
-the truth after that correction (column "seen").
+the truth after that correction (column "seen"). For vcm against such a reference the radii are
+the two methods' own (absolute, each with its alpha): where merging carries the light the
+caustic's blur is the same kernel's, so the seen bias is B(n) (1 - mean_{i<N} r_ref,i^2 /
+mean_{i<n} r_vcm,i^2).
 """
 import argparse
 import csv
@@ -101,7 +111,18 @@ KNN_SCENES = {
                  ["int:photonCount=100000", "int:surfaceK=50", "bool:progressive=true",
                   "float:alpha=0.5", "string:directLight=photons"], "4,16,64"),
 }
-VOLUME_REFERENCES = {"medium_sphere_scatter_r0.2": "medium_sphere_scatter", "cbox_knn": "cbox",
+# vcm: scene, size, parameters, ladder, and (the reference's first radius, alpha, passes) for the
+# seen correction, or None for an unbiased reference (path_mis on the Cornell box).
+VCM_SCENES = {
+    "cbox_vcm": ("scenes/cbox/cbox.xml", "128x128", ["float:radius=0.05"], "16,64,256", None),
+    "caustic_vcm": ("scenes/caustic/caustic.xml", "192x144", ["float:radius=0.04"], "16,64,256",
+                    (0.04, 0.5, 512)),
+    "sds_vcm": ("scenes/sds/sds.xml", "192x144", ["float:radius=0.04"], "16,64,256",
+                (0.04, 0.5, 256)),
+}
+VCM_ALPHA = 0.75
+VOLUME_REFERENCES = {"cbox_vcm": "cbox", "caustic_vcm": "caustic", "sds_vcm": "sds",
+                     "medium_sphere_scatter_r0.2": "medium_sphere_scatter", "cbox_knn": "cbox",
                      "spotlight_fog_r0.4": "spotlight_fog", "spotlight_fog_knn": "spotlight_fog"}
 # --order: scene, size, parameters and passes; the radii named are divided by sqrt 2 in the
 # second render (none named: volumeK divided by 2^(3/2)). Large first radii, so that the bias
@@ -149,12 +170,17 @@ def reference_noise(tool, references, name):
 
 
 def film_rows(tool, references, names):
-    print("| scene | passes | truth | noise est. | bias two radii | truth / noise | "
+    print("| scene | passes | truth | noise est. | bias two radii | seen | truth / noise | "
           "truth / (noise + two radii) |")
-    print("|---|---:|---:|---:|---:|---:|---:|")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
     for name in names:
-        path, size, params, ladder = VOLUME_SCENES.get(name) or KNN_SCENES[name]
-        integrator = "volumetric_photonmapper" if name in VOLUME_SCENES else "photonmapper"
+        seen_reference = None
+        if name in VCM_SCENES:
+            path, size, params, ladder, seen_reference = VCM_SCENES[name]
+            integrator = "vcm"
+        else:
+            path, size, params, ladder = VOLUME_SCENES.get(name) or KNN_SCENES[name]
+            integrator = "volumetric_photonmapper" if name in VOLUME_SCENES else "photonmapper"
         ref_name = VOLUME_REFERENCES.get(name, name)
         ref_noise = reference_noise(tool, references, ref_name)
         for r in render(tool, path, size, integrator, params, ladder,
@@ -163,9 +189,15 @@ def film_rows(tool, references, names):
             truth = math.sqrt(max(0.0, measured ** 2 - ref_noise ** 2))
             noise = float(r["predicted_noise"])
             two = float(r["film_bias_two_radii"] or 0)
-            print("| %s | %s | %.4f | %.4f | %.4f | %.2f | %.2f |" % (
-                name, r["passes"], truth, noise, two, truth / noise,
-                truth / math.hypot(noise, two)), flush=True)
+            seen = 1.0
+            if seen_reference:
+                ref_radius, ref_alpha, ref_passes = seen_reference
+                radius = float(next(p for p in params if p.startswith("float:radius="))[13:])
+                seen = 1.0 - (ref_radius ** 2 * mean_radius_squared(ref_passes, ref_alpha)) / (
+                    radius ** 2 * mean_radius_squared(int(r["passes"]), VCM_ALPHA))
+            print("| %s | %s | %.4f | %.4f | %.4f | %.2f | %.2f | %.2f |" % (
+                name, r["passes"], truth, noise, two, seen, truth / noise,
+                truth / math.hypot(noise, seen * two)), flush=True)
         print("(%s: reference noise %.4f)" % (name, ref_noise), flush=True)
 
 
@@ -219,7 +251,7 @@ def main():
     tool = os.path.join(args.build, "bench", "bench_atlas_render")
     chosen = args.scenes.split(",") if args.scenes else None
     known = list(ORDER_SCENES) if args.order else list(SCENES) + list(VOLUME_SCENES) + list(
-        KNN_SCENES)
+        KNN_SCENES) + list(VCM_SCENES)
     for name in chosen or []:
         if name not in known:
             parser.error("unknown scene %s; the probes cover %s" % (name, ", ".join(known)))
@@ -229,7 +261,8 @@ def main():
     if not args.references:
         parser.error("REFERENCE_DIR is needed (except with --order)")
     surface = [n for n in SCENES if chosen is None or n in chosen]
-    film = [n for n in list(VOLUME_SCENES) + list(KNN_SCENES) if chosen is None or n in chosen]
+    film = [n for n in list(VOLUME_SCENES) + list(KNN_SCENES) + list(VCM_SCENES)
+            if chosen is None or n in chosen]
     if film:
         film_rows(tool, args.references, film)
     if not surface:

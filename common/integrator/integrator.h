@@ -69,7 +69,8 @@ class Integrator : public Object {
     // Contributions of a pass that land anywhere on the image rather than at the unit's own
     // camera samples (light paths connected to the camera). A unit adds those that fall on the
     // pixels [x0, x1) x [y0, y1) of its own tile, and only those, so every such contribution is
-    // added exactly once whatever the tiling. `out` holds at least those pixels.
+    // added exactly once whatever the tiling. `out` holds at least those pixels. When `out`
+    // keeps the smaller radius's image, they are added to its sums as well.
     virtual void addPassSplats(const PassData* /*pass*/, int /*x0*/, int /*y0*/, int /*x1*/,
                                int /*y1*/, FilmBlock& /*out*/) const {}
     // Whether addPassSplats() adds anything: then Li() alone is not the integrator's estimate,

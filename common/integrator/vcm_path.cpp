@@ -459,8 +459,12 @@ void BidirectionalIntegrator::addPassSplats(const PassData* pass, int x0, int y0
     if (!data || data->lightImage.width() == 0) return;
     for (int y = y0; y < y1; ++y)
         for (int x = x0; x < x1; ++x)
-            if (out.contains(x, y) && data->lightImage.contains(x, y))
+            if (out.contains(x, y) && data->lightImage.contains(x, y)) {
                 out.at(x, y) += data->lightImage.at(x, y);
+                // Light tracing is a connection: the smaller radius's image has the same.
+                if (out.keepsSmallerRadius())
+                    out.smallerRadiusAt(x, y) += data->lightImage.at(x, y);
+            }
     for (const Vector2i& pixel : data->invalidSplats)
         if (pixel.x() >= x0 && pixel.x() < x1 && pixel.y() >= y0 && pixel.y() < y1)
             ++out.invalidSamples;
@@ -468,6 +472,29 @@ void BidirectionalIntegrator::addPassSplats(const PassData* pass, int x0, int y0
 
 Color3f BidirectionalIntegrator::Li(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
                                     const PassData* passData) const {
+    return radiance(scene, sampler, cameraRay, passData, nullptr);
+}
+
+TwoRadiiRadiance BidirectionalIntegrator::LiTwoRadii(const Scene& scene, Sampler& sampler,
+                                                     const Ray3f& cameraRay,
+                                                     const PassData* passData) const {
+    TwoRadiiRadiance both;
+    both.atPassRadius = radiance(scene, sampler, cameraRay, passData, &both.atSmallerRadius);
+    return both;
+}
+
+// The smaller radius's image keeps every merge's MIS weight at the pass radius r_i and changes
+// only the disk: the connections (light tracing's splats included) are the image's, and a merge
+// adds its light vertices within r_i / sqrt(2) over the smaller disk's area. Its bias is then
+// that of the image with each merge's blur at half the area, half the image's wherever the
+// merged light is smooth across the disk, which is what the two radii's factor 2 assumes.
+// Rendering at r_i / sqrt(2) outright would also halve the merges' share of the MIS weights
+// (merge density n pi r^2 against the connections'): where connections and merges share a path
+// the image's bias then falls faster than r^2 and the factor 2 would overstate it.
+Color3f BidirectionalIntegrator::radiance(const Scene& scene, Sampler& sampler,
+                                          const Ray3f& cameraRay, const PassData* passData,
+                                          Color3f* atSmallerRadius) const {
+    if (atSmallerRadius) *atSmallerRadius = Color3f(0.0f);
     const auto* data = dynamic_cast<const BidirectionalPassData*>(passData);
     if (!data) fail("%s: no pass data for this pass", toString());
     // One light path per camera sample, chosen uniformly among the pass's paths.
@@ -525,7 +552,9 @@ Color3f BidirectionalIntegrator::Li(const Scene& scene, Sampler& sampler, const 
                 strategies.emitterHittable = true;
                 const double w = misWeight(mis.data(), mis.size(), strategies,
                                            {MisStrategy::Kind::Connection, 0});
-                result += beta * le * static_cast<float>(w);
+                const Color3f term = beta * le * static_cast<float>(w);
+                result += term;
+                if (atSmallerRadius) *atSmallerRadius += term;
             }
         }
 
@@ -556,7 +585,9 @@ Color3f BidirectionalIntegrator::Li(const Scene& scene, Sampler& sampler, const 
                                                {MisStrategy::Kind::Connection, 1});
                     if (w > 0.0 && !s.rayOccluded(Ray3f(z.p, d, Epsilon, dist - Epsilon))) {
                         const float g = std::abs(z.shFrame.n.dot(d)) * cosLight / dist2;
-                        result += beta * f * le * y0.beta * (g * static_cast<float>(w));
+                        const Color3f term = beta * f * le * y0.beta * (g * static_cast<float>(w));
+                        result += term;
+                        if (atSmallerRadius) *atSmallerRadius += term;
                     }
                 }
             }
@@ -596,14 +627,18 @@ Color3f BidirectionalIntegrator::Li(const Scene& scene, Sampler& sampler, const 
                     // The shading cosine at z (its BSDF's), the geometric one at y (y.beta
                     // holds the arrival's ratio).
                     const float g = std::abs(z.shFrame.n.dot(d)) * std::abs(y.ng.dot(d)) / dist2;
-                    result += beta * fz * fy * y.beta * (g * static_cast<float>(w));
+                    const Color3f term = beta * fz * fy * y.beta * (g * static_cast<float>(w));
+                    result += term;
+                    if (atSmallerRadius) *atSmallerRadius += term;
                 }
 
             // Merging with the light vertices of every path of the pass near z.
             if (m_strategies.merging && !data->mergePoints.empty()) {
                 const float radius = data->mergeRadius;
                 const double normalisation = 1.0 / (double(count) * mergeArea(radius));
-                Color3f merged(0.0f);
+                const double smallerRadius2 =
+                    double(radius) * double(radius) * kSmallerRadiusAreaRatio;
+                Color3f merged(0.0f), mergedSmaller(0.0f);
                 // One query record for z, its camera-side direction in the local frame once;
                 // each light vertex adds only its own direction.
                 BSDFQueryRecord rec(z.shFrame.toLocal(z.toPrevious), Vector3f::Zero(),
@@ -611,7 +646,7 @@ Color3f BidirectionalIntegrator::Li(const Scene& scene, Sampler& sampler, const 
                 rec.uv = z.uv;
                 rec.p = z.p;
                 MisStrategies strategies = passStrategies;
-                data->mergeGrid.forEachWithin(z.p, radius, [&](uint32_t index, float) {
+                data->mergeGrid.forEachWithin(z.p, radius, [&](uint32_t index, float distance2) {
                     const size_t m = data->mergeDepth[index];
                     if (m + j > maxEdges) return;
                     const PathVertex& y = data->lightVertices[data->mergeVertex[index]];
@@ -635,9 +670,15 @@ Color3f BidirectionalIntegrator::Li(const Scene& scene, Sampler& sampler, const 
                     strategies.emitterHittable = !path[0].delta;
                     const double w = misWeight(mis.data(), mis.size(), strategies,
                                                {MisStrategy::Kind::Merge, int(m)});
-                    merged += f * y.beta * static_cast<float>(w);
+                    const Color3f term = f * y.beta * static_cast<float>(w);
+                    merged += term;
+                    if (atSmallerRadius && double(distance2) <= smallerRadius2)
+                        mergedSmaller += term;
                 });
                 result += beta * merged * static_cast<float>(normalisation);
+                if (atSmallerRadius)
+                    *atSmallerRadius += beta * mergedSmaller *
+                                        static_cast<float>(normalisation / kSmallerRadiusAreaRatio);
             }
         }
 

@@ -77,6 +77,13 @@ class BidirectionalIntegrator : public Integrator {
     std::optional<RadiusSchedule> radiusSchedule() const override;
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,
                const PassData* pass) const override;
+    // vcm with merging: the second image merges within r_i / sqrt(2) of the same camera
+    // vertices, from the same query, each merge weighted as in the image (see radiance()).
+    bool estimatesBiasWithTwoRadii() const override {
+        return m_kind == Kind::Vcm && m_strategies.merging;
+    }
+    TwoRadiiRadiance LiTwoRadii(const Scene& scene, Sampler& sampler, const Ray3f& ray,
+                                const PassData* pass) const override;
     void addPassSplats(const PassData* pass, int x0, int y0, int x1, int y1,
                        FilmBlock& out) const override;
     bool hasPassSplats() const override { return m_strategies.lightTracing; }
@@ -112,6 +119,11 @@ class BidirectionalIntegrator : public Integrator {
                          std::vector<std::pair<Point2f, Color3f>>& splats) const;
 
     double mergeArea(float radius) const;
+    // Li(); when `atSmallerRadius` is given, also the radiance with every merge gathered within
+    // r_i / sqrt(2) instead of r_i (normalised by the smaller disk's area) and everything else,
+    // the merges' MIS weights included, as in the image.
+    Color3f radiance(const Scene& scene, Sampler& sampler, const Ray3f& ray, const PassData* pass,
+                     Color3f* atSmallerRadius) const;
 
     Kind m_kind;
     int m_maxDepth;             // bounces, -1 unlimited

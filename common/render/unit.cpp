@@ -197,10 +197,11 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
     // Light paths splat onto the whole image (bidirectional integrators): each unit adds the
     // part on its own tile, into the half of each pass's parity.
     if (!cancelled && integrator.hasPassSplats()) {
-        if (twoRadii) fail("renderUnit: pass splats have no smaller radius's image");
-        FilmBlock splats[2] = {
-            FilmBlock(out.x0(), out.y0(), out.width(), out.height(), PassHalves::None),
-            FilmBlock(out.x0(), out.y0(), out.width(), out.height(), PassHalves::None)};
+        // The integrator adds its splats to the smaller radius's image too when kept.
+        FilmBlock splats[2] = {FilmBlock(out.x0(), out.y0(), out.width(), out.height(),
+                                         PassHalves::None, scratchSmallerRadius),
+                               FilmBlock(out.x0(), out.y0(), out.width(), out.height(),
+                                         PassHalves::None, scratchSmallerRadius)};
         for (size_t i = 0; i < passes; ++i)
             integrator.addPassSplats(passData[i].get(), tile.x0, tile.y0, tile.x1, tile.y1,
                                      splats[(unit.passBegin + i) % 2]);

@@ -467,6 +467,53 @@ std::shared_ptr<Integrator> makeIntegrator(const char* type, const PropertyList&
     return integrator;
 }
 
+// The accuracy of a biased integrator's error estimate on `scene`: an unbiased reference of
+// `referencePasses` with the scene's own integrator (seed 1000; its own noise taken out of each
+// measured error), then `biased` over seeds 1 to 8 of `passes` each, whose films must keep the
+// smaller radius's image. Returns the t-tests of log(estimate / truth) for the noise alone and
+// for the noise with the two-radii bias, and prints every seed's figures.
+struct BiasEstimateAccuracy {
+    RatioTest noise, twoRadii;
+};
+BiasEstimateAccuracy measureBiasEstimate(Scene& scene, std::shared_ptr<Integrator> biased,
+                                         int width, int height, uint32_t passes,
+                                         uint32_t referencePasses) {
+    RenderSettings settings;
+    settings.seed = 1000;
+    settings.passes = referencePasses;
+    RenderStatus referenceStatus;
+    const std::vector<double> reference =
+        luminances(renderLocal(scene, settings, {}, nullptr, &referenceStatus), width, height);
+    EXPECT_TRUE(referenceStatus.estimate);
+    if (!referenceStatus.estimate) return {};
+    const double referenceNoise = referenceStatus.estimate->relativeRmse;
+    scene.setIntegrator(std::move(biased));
+    std::vector<double> noiseLogRatios, twoRadiiLogRatios;
+    for (uint64_t seed = 1; seed <= 8; ++seed) {
+        settings.seed = seed;
+        settings.passes = passes;
+        RenderStatus status;
+        const FilmBlock film = renderLocal(scene, settings, {}, nullptr, &status);
+        EXPECT_TRUE(film.keepsSmallerRadius());
+        EXPECT_TRUE(status.estimate && status.estimate->relativeBias);
+        if (!status.estimate || !status.estimate->relativeBias) return {};
+        const double measured = trueRelativeRmse(luminances(film, width, height), reference);
+        const double truth =
+            std::sqrt(std::max(0.0, measured * measured - referenceNoise * referenceNoise));
+        const double noise = status.estimate->relativeNoise();
+        const double withTwoRadii = status.estimate->relativeRmse;
+        noiseLogRatios.push_back(std::log(noise / truth));
+        twoRadiiLogRatios.push_back(std::log(withTwoRadii / truth));
+        std::printf("seed %llu: truth %.4f; noise %.4f; bias two radii %.4f (total %.4f)\n",
+                    (unsigned long long)seed, truth, noise, *status.estimate->relativeBias,
+                    withTwoRadii);
+    }
+    BiasEstimateAccuracy result{testLogRatios(noiseLogRatios), testLogRatios(twoRadiiLogRatios)};
+    std::printf("reference noise %.4f\nnoise only: %s\ntwo radii: %s\n", referenceNoise,
+                result.noise.message.c_str(), result.twoRadii.message.c_str());
+    return result;
+}
+
 // A progressive volumetric photon mapper, fixed radii, or volume radii from the volumeK nearest
 // volume photons when volumeK > 0; next-event estimation on surfaces by default.
 std::shared_ptr<Integrator> progressiveVolumetricPhotonMapper(int photons, float surfaceRadius,
@@ -501,48 +548,17 @@ std::shared_ptr<Scene> smallMediumScene(int width, int height) {
 // the surface radius shrinks) it is 0.39 and fails.
 TEST(ErrorEstimateAccuracy, BiasEstimateCoversTheVolumeRadiusBiasOfVolumetricPhotonMapping) {
     const int width = 32, height = 24;
-    const uint32_t passes = 16, referencePasses = 256;
     const std::shared_ptr<Scene> scene = smallMediumScene(width, height);
     scene->setIntegrator(makeIntegrator("volume_path_mis", PropertyList()));
-    RenderSettings settings;
-    settings.seed = 1000;
-    settings.passes = referencePasses;
-    RenderStatus referenceStatus;
-    const std::vector<double> reference =
-        luminances(renderLocal(*scene, settings, {}, nullptr, &referenceStatus), width, height);
-    ASSERT_TRUE(referenceStatus.estimate);
-    const double referenceNoise = referenceStatus.estimate->relativeRmse;
-    scene->setIntegrator(progressiveVolumetricPhotonMapper(10000, 0.1f, 0.5f));
-    std::vector<double> noiseLogRatios, twoRadiiLogRatios;
-    for (uint64_t seed = 1; seed <= 8; ++seed) {
-        settings.seed = seed;
-        settings.passes = passes;
-        RenderStatus status;
-        const FilmBlock film = renderLocal(*scene, settings, {}, nullptr, &status);
-        ASSERT_TRUE(film.keepsSmallerRadius());
-        ASSERT_TRUE(status.estimate && status.estimate->relativeBias);
-        const double measured = trueRelativeRmse(luminances(film, width, height), reference);
-        const double truth =
-            std::sqrt(std::max(0.0, measured * measured - referenceNoise * referenceNoise));
-        const double noise = status.estimate->relativeNoise();
-        const double withTwoRadii = status.estimate->relativeRmse;
-        noiseLogRatios.push_back(std::log(noise / truth));
-        twoRadiiLogRatios.push_back(std::log(withTwoRadii / truth));
-        std::printf("seed %llu: truth %.4f; noise %.4f; bias two radii %.4f (total %.4f)\n",
-                    (unsigned long long)seed, truth, noise, *status.estimate->relativeBias,
-                    withTwoRadii);
-    }
-    const RatioTest noiseTest = testLogRatios(noiseLogRatios);
-    const RatioTest twoRadiiTest = testLogRatios(twoRadiiLogRatios);
-    std::printf("reference noise %.4f\nnoise only: %s\ntwo radii: %s\n", referenceNoise,
-                noiseTest.message.c_str(), twoRadiiTest.message.c_str());
-    EXPECT_FALSE(noiseTest.unbiased)
-        << "the noise alone must miss the truth here: " << noiseTest.message;
-    EXPECT_LT(noiseTest.meanLogRatio, std::log(0.5)) << noiseTest.message;
+    const BiasEstimateAccuracy accuracy = measureBiasEstimate(
+        *scene, progressiveVolumetricPhotonMapper(10000, 0.1f, 0.5f), width, height, 16, 256);
+    EXPECT_FALSE(accuracy.noise.unbiased)
+        << "the noise alone must miss the truth here: " << accuracy.noise.message;
+    EXPECT_LT(accuracy.noise.meanLogRatio, std::log(0.5)) << accuracy.noise.message;
     // Within the stated accuracy, not necessarily centred: the sphere's silhouette and the beams
     // entering it obliquely make the bias fall slower than r² at these radii, which the factor 2
     // of the two radii does not know (docs/error-estimate.md).
-    EXPECT_TRUE(twoRadiiTest.withinAccuracy) << twoRadiiTest.message;
+    EXPECT_TRUE(accuracy.twoRadii.withinAccuracy) << accuracy.twoRadii.message;
 }
 
 // vcm with a merge radius (connections on, the pixel count of light paths per pass).
@@ -562,45 +578,14 @@ std::shared_ptr<Integrator> vertexConnectionAndMerging(float radius) {
 // equal to the first the bias estimate is 0 and the test fails.
 TEST(ErrorEstimateAccuracy, BiasEstimateCoversTheMergeRadiusBiasOfVcm) {
     const int width = 40, height = 30;
-    const uint32_t passes = 16, referencePasses = 512;
     const std::shared_ptr<Scene> scene = smallPathTracedScene(width, height);
-    RenderSettings settings;
-    settings.seed = 1000;
-    settings.passes = referencePasses;
-    RenderStatus referenceStatus;
-    const std::vector<double> reference =
-        luminances(renderLocal(*scene, settings, {}, nullptr, &referenceStatus), width, height);
-    ASSERT_TRUE(referenceStatus.estimate);
-    const double referenceNoise = referenceStatus.estimate->relativeRmse;
-    scene->setIntegrator(vertexConnectionAndMerging(0.6f));
-    std::vector<double> noiseLogRatios, twoRadiiLogRatios;
-    for (uint64_t seed = 1; seed <= 8; ++seed) {
-        settings.seed = seed;
-        settings.passes = passes;
-        RenderStatus status;
-        const FilmBlock film = renderLocal(*scene, settings, {}, nullptr, &status);
-        ASSERT_TRUE(film.keepsSmallerRadius());
-        ASSERT_TRUE(status.estimate && status.estimate->relativeBias);
-        const double measured = trueRelativeRmse(luminances(film, width, height), reference);
-        const double truth =
-            std::sqrt(std::max(0.0, measured * measured - referenceNoise * referenceNoise));
-        const double noise = status.estimate->relativeNoise();
-        const double withTwoRadii = status.estimate->relativeRmse;
-        noiseLogRatios.push_back(std::log(noise / truth));
-        twoRadiiLogRatios.push_back(std::log(withTwoRadii / truth));
-        std::printf("seed %llu: truth %.4f; noise %.4f; bias two radii %.4f (total %.4f)\n",
-                    (unsigned long long)seed, truth, noise, *status.estimate->relativeBias,
-                    withTwoRadii);
-    }
-    const RatioTest noiseTest = testLogRatios(noiseLogRatios);
-    const RatioTest twoRadiiTest = testLogRatios(twoRadiiLogRatios);
-    std::printf("reference noise %.4f\nnoise only: %s\ntwo radii: %s\n", referenceNoise,
-                noiseTest.message.c_str(), twoRadiiTest.message.c_str());
-    EXPECT_FALSE(noiseTest.unbiased)
-        << "the noise alone must miss the truth here: " << noiseTest.message;
-    EXPECT_LT(noiseTest.meanLogRatio, std::log(0.6)) << noiseTest.message;
-    EXPECT_TRUE(twoRadiiTest.unbiased) << twoRadiiTest.message;
-    EXPECT_TRUE(twoRadiiTest.withinAccuracy) << twoRadiiTest.message;
+    const BiasEstimateAccuracy accuracy =
+        measureBiasEstimate(*scene, vertexConnectionAndMerging(0.6f), width, height, 16, 512);
+    EXPECT_FALSE(accuracy.noise.unbiased)
+        << "the noise alone must miss the truth here: " << accuracy.noise.message;
+    EXPECT_LT(accuracy.noise.meanLogRatio, std::log(0.6)) << accuracy.noise.message;
+    EXPECT_TRUE(accuracy.twoRadii.unbiased) << accuracy.twoRadii.message;
+    EXPECT_TRUE(accuracy.twoRadii.withinAccuracy) << accuracy.twoRadii.message;
 }
 
 // The halves are as exact as the image: the same bytes at any thread count and tile size; and a

@@ -625,6 +625,46 @@ TEST(ErrorEstimate, HalvesAndStoppingPassIgnoreThreadsAndTiles) {
     EXPECT_GT(firstStop, 4u) << "choose a target the first decision does not reach";
 }
 
+// A film with the smaller radius's image (and its bias estimate) has the same bytes at one and
+// two threads and at tile sizes 8 and 5 (4 passes, seed 7).
+void expectTwoRadiiFilmIgnoresThreadsAndTiles(const Scene& scene) {
+    std::string firstBytes;
+    for (int threads : {1, 2})
+        for (int tile : {8, 5}) {
+            tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+            RenderSettings settings;
+            settings.seed = 7;
+            settings.passes = 4;
+            settings.tileSize = tile;
+            settings.passesPerUnit = tile == 8 ? 4 : 1;
+            RenderStatus status;
+            const FilmBlock film = renderLocal(scene, settings, {}, nullptr, &status);
+            ASSERT_TRUE(film.keepsSmallerRadius());
+            ASSERT_TRUE(status.estimate && status.estimate->relativeBias);
+            if (firstBytes.empty())
+                firstBytes = film.serialize();
+            else
+                EXPECT_EQ(film.serialize(), firstBytes) << threads << " threads, tile " << tile;
+        }
+}
+
+// A unit rendered into a block with the smaller radius's image and into one without: identical
+// image sums, and the smaller radius's image differs from them (a different gather, not a copy).
+void expectSmallerRadiusLeavesTheImageAlone(const Scene& scene) {
+    const TileGrid grid(scene, 8);
+    const Tile tile = grid.tiles()[3];
+    const auto passData = preparePasses(scene, 7, 0, 3);
+    FilmBlock twoRadii = grid.block(tile);
+    ASSERT_TRUE(twoRadii.keepsSmallerRadius());
+    FilmBlock oneRadius = unitBlock(tile, grid.border());
+    ASSERT_FALSE(oneRadius.keepsSmallerRadius());
+    ASSERT_TRUE(renderUnit(scene, 7, RenderUnit{0, 3, tile}, passData, twoRadii));
+    ASSERT_TRUE(renderUnit(scene, 7, RenderUnit{0, 3, tile}, passData, oneRadius));
+    const std::string imageBytes = oneRadius.serialize();
+    EXPECT_EQ(twoRadii.serialize().substr(0, imageBytes.size()), imageBytes);
+    EXPECT_NE(twoRadii.serialize().substr(imageBytes.size()), imageBytes);
+}
+
 // A progressive photon mapper's film keeps the smaller radius's image, as exact as the image:
 // the same bytes (both radii, both halves) at any thread count and tile size, and the same
 // stopping pass for a target. Gathering the second radius changes no float of the image: its
@@ -666,19 +706,7 @@ TEST(ErrorEstimate, TwoRadiiSumsIgnoreThreadsAndTilesAndLeaveTheImageAlone) {
     EXPECT_GT(firstStop, 4u) << "choose a target the first decision does not reach";
 
     // The same unit rendered into a block without the smaller radius: identical image sums.
-    const TileGrid grid(*scene, 8);
-    const Tile tile = grid.tiles()[3];
-    const auto passData = preparePasses(*scene, 7, 0, 3);
-    FilmBlock twoRadii = grid.block(tile);
-    ASSERT_TRUE(twoRadii.keepsSmallerRadius());
-    FilmBlock oneRadius = unitBlock(tile, grid.border());
-    ASSERT_FALSE(oneRadius.keepsSmallerRadius());
-    ASSERT_TRUE(renderUnit(*scene, 7, RenderUnit{0, 3, tile}, passData, twoRadii));
-    ASSERT_TRUE(renderUnit(*scene, 7, RenderUnit{0, 3, tile}, passData, oneRadius));
-    const std::string imageBytes = oneRadius.serialize();
-    EXPECT_EQ(twoRadii.serialize().substr(0, imageBytes.size()), imageBytes);
-    // ... and the smaller radius's image differs from it (a different gather, not a copy).
-    EXPECT_NE(twoRadii.serialize().substr(imageBytes.size()), imageBytes);
+    expectSmallerRadiusLeavesTheImageAlone(*scene);
 }
 
 // The same for the volumetric photon mapper (fixed radii and volume kNN radii: the smaller image
@@ -709,34 +737,8 @@ TEST(ErrorEstimate, TwoRadiiOfVolumeAndNearestNeighbourModesIgnoreThreadsAndLeav
         SCOPED_TRACE(c.name);
         c.scene->setIntegrator(c.integrator);
         ASSERT_EQ(filmSmallerRadius(*c.scene), SmallerRadius::Kept);
-        std::string firstBytes;
-        for (int threads : {1, 2})
-            for (int tile : {8, 5}) {
-                tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-                RenderSettings settings;
-                settings.seed = 7;
-                settings.passes = 4;
-                settings.tileSize = tile;
-                settings.passesPerUnit = tile == 8 ? 4 : 1;
-                RenderStatus status;
-                const FilmBlock film = renderLocal(*c.scene, settings, {}, nullptr, &status);
-                ASSERT_TRUE(film.keepsSmallerRadius());
-                ASSERT_TRUE(status.estimate && status.estimate->relativeBias);
-                if (firstBytes.empty())
-                    firstBytes = film.serialize();
-                else
-                    EXPECT_EQ(film.serialize(), firstBytes) << threads << " threads, tile " << tile;
-            }
-        const TileGrid grid(*c.scene, 8);
-        const Tile tile = grid.tiles()[3];
-        const auto passData = preparePasses(*c.scene, 7, 0, 3);
-        FilmBlock twoRadii = grid.block(tile);
-        FilmBlock oneRadius = unitBlock(tile, grid.border());
-        ASSERT_TRUE(renderUnit(*c.scene, 7, RenderUnit{0, 3, tile}, passData, twoRadii));
-        ASSERT_TRUE(renderUnit(*c.scene, 7, RenderUnit{0, 3, tile}, passData, oneRadius));
-        const std::string imageBytes = oneRadius.serialize();
-        EXPECT_EQ(twoRadii.serialize().substr(0, imageBytes.size()), imageBytes);
-        EXPECT_NE(twoRadii.serialize().substr(imageBytes.size()), imageBytes);
+        expectTwoRadiiFilmIgnoresThreadsAndTiles(*c.scene);
+        expectSmallerRadiusLeavesTheImageAlone(*c.scene);
     }
 }
 
@@ -750,34 +752,9 @@ TEST(ErrorEstimate, TwoRadiiOfVcmIgnoreThreadsAndTilesAndLeaveTheImageAlone) {
     scene->setIntegrator(vertexConnectionAndMerging(0.3f));
     ASSERT_EQ(filmSmallerRadius(*scene), SmallerRadius::Kept);
     ASSERT_TRUE(scene->integrator()->hasPassSplats());
-    std::string firstBytes;
-    for (int threads : {1, 2})
-        for (int tile : {8, 5}) {
-            tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-            RenderSettings settings;
-            settings.seed = 7;
-            settings.passes = 4;
-            settings.tileSize = tile;
-            settings.passesPerUnit = tile == 8 ? 4 : 1;
-            RenderStatus status;
-            const FilmBlock film = renderLocal(*scene, settings, {}, nullptr, &status);
-            ASSERT_TRUE(film.keepsSmallerRadius());
-            ASSERT_TRUE(status.estimate && status.estimate->relativeBias);
-            if (firstBytes.empty())
-                firstBytes = film.serialize();
-            else
-                EXPECT_EQ(film.serialize(), firstBytes) << threads << " threads, tile " << tile;
-        }
-    const TileGrid grid(*scene, 8);
-    const Tile tile = grid.tiles()[3];
-    const auto passData = preparePasses(*scene, 7, 0, 3);
-    FilmBlock twoRadii = grid.block(tile);
-    FilmBlock oneRadius = unitBlock(tile, grid.border());
-    ASSERT_TRUE(renderUnit(*scene, 7, RenderUnit{0, 3, tile}, passData, twoRadii));
-    ASSERT_TRUE(renderUnit(*scene, 7, RenderUnit{0, 3, tile}, passData, oneRadius));
-    const std::string imageBytes = oneRadius.serialize();
-    EXPECT_EQ(twoRadii.serialize().substr(0, imageBytes.size()), imageBytes);
-    EXPECT_NE(twoRadii.serialize().substr(imageBytes.size()), imageBytes);
+    expectTwoRadiiFilmIgnoresThreadsAndTiles(*scene);
+    expectSmallerRadiusLeavesTheImageAlone(*scene);
+    const auto passData = preparePasses(*scene, 7, 0, 1);
     // Light tracing is a connection: its splats go into both images alike.
     FilmBlock splats(0, 0, 20, 14, PassHalves::None, SmallerRadius::Kept);
     scene->integrator()->addPassSplats(passData[0].get(), 0, 0, 20, 14, splats);

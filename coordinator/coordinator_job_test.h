@@ -52,6 +52,20 @@ class CoordinatorJobTest : public ::testing::Test {
   )" << extra << "\n</scene>\n";
     }
 
+    // The sphere under a point light, rendered by progressive photon mapping: a job whose film
+    // keeps the smaller radius's image.
+    void writeProgressivePhotonScene() {
+        writeScene(R"(<integrator type="photonmapper">
+    <integer name="photonCount" value="500"/>
+    <float name="surfacePhotonRadius" value="0.5"/>
+    <boolean name="progressive" value="true"/>
+  </integrator>)",
+                   40, 30,
+                   R"(<emitter type="point">
+    <point name="position" value="0, 3, 0"/><color name="power" value="50, 50, 50"/>
+  </emitter>)");
+    }
+
     // Stores the scene's files in the coordinator's blob store, as `alphorn submit` uploads
     // them, and returns the request that submits it (`passes` passes of one pass per unit).
     v1::SubmitJobRequest upload(Coordinator& coordinator, uint32_t passes = 3) {

@@ -520,15 +520,7 @@ TEST_F(CoordinatorJob, JobsBeyondTheMemoryBudgetAreRefused) {
 // version: its row says 0) is leased, rendered and merged without one after an upgrade, instead
 // of having every result refused for its size.
 TEST_F(CoordinatorJob, AJobKeepsTheFilmLayoutItWasAdmittedWith) {
-    writeScene(R"(<integrator type="photonmapper">
-    <integer name="photonCount" value="500"/>
-    <float name="surfacePhotonRadius" value="0.5"/>
-    <boolean name="progressive" value="true"/>
-  </integrator>)",
-               40, 30,
-               R"(<emitter type="point">
-    <point name="position" value="0, 3, 0"/><color name="power" value="50, 50, 50"/>
-  </emitter>)");
+    writeProgressivePhotonScene();
     uint64_t jobId = 0;
     {
         Coordinator coordinator(m_options);
@@ -557,15 +549,7 @@ TEST_F(CoordinatorJob, AJobKeepsTheFilmLayoutItWasAdmittedWith) {
 // A preview of a progressive photon job holds every sum its film keeps, the smaller radius's
 // image included (copyFilmInBands copies the film's whole layout).
 TEST_F(CoordinatorJob, APreviewKeepsTheSmallerRadiusImage) {
-    writeScene(R"(<integrator type="photonmapper">
-    <integer name="photonCount" value="500"/>
-    <float name="surfacePhotonRadius" value="0.5"/>
-    <boolean name="progressive" value="true"/>
-  </integrator>)",
-               40, 30,
-               R"(<emitter type="point">
-    <point name="position" value="0, 3, 0"/><color name="power" value="50, 50, 50"/>
-  </emitter>)");
+    writeProgressivePhotonScene();
     Coordinator coordinator(m_options);
     const v1::JobStatus status = coordinator.submit(upload(coordinator, 2));
     const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());

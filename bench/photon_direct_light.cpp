@@ -52,18 +52,12 @@ std::shared_ptr<Scene> loadWithDirectLight(const std::string& path, const std::s
     std::stringstream text;
     text << in.rdbuf();
     std::string xml = text.str();
-    // A scene that names its own mode has it replaced (a second property would be an error).
-    const std::regex named(R"(<string name="directLight" value="[a-z]*"/>)");
-    const std::string property = "<string name=\"directLight\" value=\"" + mode + "\"/>";
-    if (std::regex_search(xml, named)) {
-        xml = std::regex_replace(xml, named, property);
-    } else {
-        const std::string tag = "photonmapper\">";
-        const size_t at = xml.find(tag);
-        if (at == std::string::npos)
-            throw std::runtime_error(path + ": no photon-mapper integrator");
-        xml.insert(at + tag.size(), property);
-    }
+    // A mode the scene names itself is dropped first (a second property would be an error).
+    xml = std::regex_replace(xml, std::regex(R"(<string name="directLight" value="[a-z]*"/>)"), "");
+    const std::string tag = "photonmapper\">";
+    const size_t at = xml.find(tag);
+    if (at == std::string::npos) throw std::runtime_error(path + ": no photon-mapper integrator");
+    xml.insert(at + tag.size(), "<string name=\"directLight\" value=\"" + mode + "\"/>");
     const std::filesystem::path copy =
         std::filesystem::path(path).parent_path() / (".bench_direct_light_" + mode + ".xml");
     std::ofstream(copy) << xml;

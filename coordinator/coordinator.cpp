@@ -15,6 +15,7 @@
 #include <unistd.h>
 #include <zstd.h>
 
+#include <algorithm>
 #include <filesystem>
 
 namespace alphorn::coordinator {
@@ -57,6 +58,10 @@ uint64_t physicalMemoryBytes() {
 }
 
 constexpr double kPruneIntervalSeconds = 60;
+// A round of checkpoints may take at most this share of the coordinator's time: a large film (a
+// photon-mapped 960x540 job keeps 133 MB of sums) stretches the interval instead of keeping a
+// core busy copying and compressing it (on a one-machine cluster, the workers' core).
+constexpr double kCheckpointTimeShare = 0.05;
 
 }  // namespace
 
@@ -163,12 +168,14 @@ void Coordinator::tick() {
         }
         m_nextPrune = m_clock->monotonicSeconds() + kPruneIntervalSeconds;
     }
-    if (m_clock->monotonicSeconds() >= m_nextCheckpoint) {
+    if (const double start = m_clock->monotonicSeconds(); start >= m_nextCheckpoint) {
         checkpointDirtyJobs();
         // The event logs are stored with each round of checkpoints: a crash loses at most the
         // events since, as it loses the merges since.
         saveChangedEventLogs();
-        m_nextCheckpoint = m_clock->monotonicSeconds() + m_options.checkpointIntervalSeconds;
+        const double end = m_clock->monotonicSeconds();
+        m_nextCheckpoint = end + std::max(m_options.checkpointIntervalSeconds,
+                                          (end - start) / kCheckpointTimeShare);
     }
 }
 

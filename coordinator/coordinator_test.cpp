@@ -1088,6 +1088,62 @@ TEST_F(CoordinatorJob, WorkerStatesFollowTheirCalls) {
     coordinator.stop();
 }
 
+// Checkpoints come every interval while they are quick; a round that takes longer than a
+// twentieth of the interval stretches the next wait to twenty times its own length, so a large
+// film does not keep the coordinator (and, on one machine, the workers' core) busy writing.
+TEST_F(CoordinatorJob, SlowCheckpointsStretchTheInterval) {
+    auto clock = std::make_shared<ManualClock>();
+    m_options.checkpointIntervalSeconds = 10;
+    Coordinator coordinator(m_options, clock);
+    const uint64_t jobId = coordinator.submit(upload(coordinator)).job_id();
+    const uint64_t worker = coordinator.registerWorker(v1::RegisterRequest());
+    double writeSeconds = 0.1;  // how long each durable write takes on the manual clock
+    coordinator.setDurableWriteHooks({[&] { clock->advance(writeSeconds); }, {}});
+    const auto mergeOne = [&] {
+        const auto lease = coordinator.acquire(worker, std::chrono::steady_clock::now());
+        std::string compressed;
+        ASSERT_EQ(coordinator.report(render(lease, worker, compressed), compressed),
+                  v1::RESULT_MERGED);
+    };
+    const auto checkpoints = [&] {
+        return coordinator.listJobs(jobId).at(0).checkpoints_written();
+    };
+    // Quick writes: every 10 s.
+    mergeOne();
+    clock->advance(10);
+    coordinator.tick();
+    ASSERT_EQ(checkpoints(), 1u);
+    mergeOne();
+    clock->advance(10);
+    coordinator.tick();
+    ASSERT_EQ(checkpoints(), 2u);
+    // A write of 2 s: the next round waits 40 s, not 10.
+    writeSeconds = 2;
+    mergeOne();
+    clock->advance(10);
+    coordinator.tick();
+    ASSERT_EQ(checkpoints(), 3u);
+    mergeOne();
+    clock->advance(30);
+    coordinator.tick();
+    EXPECT_EQ(checkpoints(), 3u) << "a slow checkpoint did not stretch the interval";
+    clock->advance(11);
+    coordinator.tick();
+    EXPECT_EQ(checkpoints(), 4u);
+    // Quick again: back to 10 s after the next round.
+    writeSeconds = 0.1;
+    mergeOne();
+    clock->advance(41);
+    coordinator.tick();
+    ASSERT_EQ(checkpoints(), 5u);
+    mergeOne();
+    clock->advance(10);
+    coordinator.tick();
+    EXPECT_EQ(checkpoints(), 6u);
+    coordinator.setDurableWriteHooks({});
+    coordinator.stop();
+}
+
 // What WatchJob waits on: a job's change signal moves when a unit merges and when the job is
 // cancelled, waking a waiter at once; on a quiet job the wait returns at its deadline with the
 // version it saw; beginStop() closes it, so no watcher holds up a shutdown.

@@ -4,14 +4,42 @@
 
 #include <zstd.h>
 
+#include <memory>
+#include <vector>
+
 namespace alphorn::farm {
 
-std::string zstdCompress(std::string_view bytes, int level) {
-    std::string out(ZSTD_compressBound(bytes.size()), '\0');
-    size_t size = ZSTD_compress(out.data(), out.size(), bytes.data(), bytes.size(), level);
-    if (ZSTD_isError(size)) fail("zstd compression failed: %s", ZSTD_getErrorName(size));
-    out.resize(size);
+std::string zstdCompress(const std::vector<std::string_view>& parts, int level) {
+    const std::unique_ptr<ZSTD_CCtx, size_t (*)(ZSTD_CCtx*)> context(ZSTD_createCCtx(),
+                                                                     ZSTD_freeCCtx);
+    if (!context) fail("zstd compression failed: out of memory");
+    const auto check = [](size_t code) {
+        if (ZSTD_isError(code)) fail("zstd compression failed: %s", ZSTD_getErrorName(code));
+        return code;
+    };
+    unsigned long long total = 0;
+    for (std::string_view part : parts) total += part.size();
+    check(ZSTD_CCtx_setParameter(context.get(), ZSTD_c_compressionLevel, level));
+    check(ZSTD_CCtx_setPledgedSrcSize(context.get(), total));
+    std::string out;
+    std::vector<char> buffer(ZSTD_CStreamOutSize());
+    for (size_t i = 0; i <= parts.size(); ++i) {
+        // After the last part, one more round with no input ends the frame.
+        const bool end = i == parts.size();
+        ZSTD_inBuffer in{end ? nullptr : parts[i].data(), end ? 0 : parts[i].size(), 0};
+        for (;;) {
+            ZSTD_outBuffer output{buffer.data(), buffer.size(), 0};
+            const size_t left = check(ZSTD_compressStream2(context.get(), &output, &in,
+                                                           end ? ZSTD_e_end : ZSTD_e_continue));
+            out.append(buffer.data(), output.pos);
+            if (end ? left == 0 : in.pos == in.size) break;
+        }
+    }
     return out;
+}
+
+std::string zstdCompress(std::string_view bytes, int level) {
+    return zstdCompress(std::vector<std::string_view>{bytes}, level);
 }
 
 std::string zstdDecompress(std::string_view compressed, uint64_t maxBytes) {
@@ -29,7 +57,7 @@ std::string zstdDecompress(std::string_view compressed, uint64_t maxBytes) {
 }
 
 std::string compressFilm(const FilmBlock& block) {
-    return zstdCompress(block.serialize());
+    return zstdCompress(block.serializedParts());
 }
 
 void decompressFilm(const std::string& compressed, FilmBlock& block) {

@@ -7,6 +7,8 @@
 #include "common/render/film.h"
 
 #include <string>
+#include <string_view>
+#include <vector>
 
 namespace alphorn::farm {
 
@@ -21,6 +23,10 @@ std::string compressFilm(const FilmBlock& block);
 // corrupt data, a shape mismatch or a sum beyond kMaxDecodedSum.
 void decompressFilm(const std::string& compressed, FilmBlock& block);
 
+// One zstd frame of the concatenation of `parts`, recording its size (which zstdDecompress
+// needs). Streamed: neither the input's concatenation nor a worst-case output buffer is made, so
+// compressing a film of a few hundred megabytes allocates only its compressed size.
+std::string zstdCompress(const std::vector<std::string_view>& parts, int level = 1);
 std::string zstdCompress(std::string_view bytes, int level = 1);
 // Throws Error when the data is corrupt or would exceed `maxBytes` decompressed.
 std::string zstdDecompress(std::string_view compressed, uint64_t maxBytes);

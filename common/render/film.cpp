@@ -108,15 +108,20 @@ void FilmBlock::addPassesOfParity(const FilmBlock& samples, bool oddPasses) {
 
 static_assert(sizeof(PixelSum) == 64, "PixelSum must be four packed 128-bit integers");
 
-std::string FilmBlock::serialize() const {
+std::vector<std::string_view> FilmBlock::serializedParts() const {
     // x86-64 and aarch64 are little-endian; the bytes are the in-memory integers.
-    std::string bytes(m_pixels.size() * bytesPerPixel(), '\0');
-    size_t offset = 0;
-    for (const std::vector<PixelSum>* sums : {&m_pixels, &m_odd, &m_smaller, &m_smallerOdd}) {
-        if (sums->empty()) continue;
-        std::memcpy(bytes.data() + offset, sums->data(), sums->size() * sizeof(PixelSum));
-        offset += sums->size() * sizeof(PixelSum);
-    }
+    std::vector<std::string_view> parts;
+    for (const std::vector<PixelSum>* sums : {&m_pixels, &m_odd, &m_smaller, &m_smallerOdd})
+        if (!sums->empty())
+            parts.emplace_back(reinterpret_cast<const char*>(sums->data()),
+                               sums->size() * sizeof(PixelSum));
+    return parts;
+}
+
+std::string FilmBlock::serialize() const {
+    std::string bytes;
+    bytes.reserve(m_pixels.size() * bytesPerPixel());
+    for (std::string_view part : serializedParts()) bytes += part;
     return bytes;
 }
 

@@ -21,6 +21,7 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace alphorn {
@@ -128,6 +129,9 @@ class FilmBlock {
     // Raw little-endian bytes of the sums (all totals, then the odd half when kept, then the
     // smaller radius's totals and odd half when kept), for checkpoints and the wire.
     std::string serialize() const;
+    // The byte ranges serialize() concatenates, in its order: views of this block's sums, so that
+    // a large film can be compressed or hashed without a serialized copy.
+    std::vector<std::string_view> serializedParts() const;
     // Throws Error when the bytes do not describe a block of this shape and halves.
     void deserialize(const std::string& bytes);
 

@@ -42,6 +42,12 @@ class Object : public std::enable_shared_from_this<Object> {
     // Where the object was written (for error messages).
     const std::string& source() const { return m_source; }
     void setSource(std::string source) { m_source = std::move(source); }
+    // How the object was written, as the parser read it: its element and everything inside it,
+    // but not the name its parent takes it under; empty for objects the parser did not make.
+    // Objects with equal non-empty definitions compute the same values, so a plugin holding two
+    // may evaluate one for both.
+    const std::string& definition() const { return m_definition; }
+    void setDefinition(std::string definition) { m_definition = std::move(definition); }
 
     template <typename... Args>
     [[noreturn]] void fail(const absl::FormatSpec<Args...>& format, const Args&... args) const {
@@ -50,6 +56,7 @@ class Object : public std::enable_shared_from_this<Object> {
 
   private:
     std::string m_source = "<unknown>";
+    std::string m_definition;
 };
 
 class ObjectFactory {

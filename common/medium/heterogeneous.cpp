@@ -24,6 +24,10 @@
 // transmittance with no random numbers at all (tests/statistical and medium_test.cpp measure
 // the variance of both).
 //
+// When `sigmaA` is written exactly as `sigmaS` (the same texture element with the same contents,
+// as the stage's fog absorbs where it scatters), one evaluation gives both: the same values bit
+// for bit, at half the cost of the textures, which dominate tracking in procedural fog.
+//
 // A medium whose coefficients are the same everywhere (plain colours, or textures whose lower and
 // upper bounds agree) is a homogeneous medium, and without a declared `majorant` it is rendered as
 // one: free flight and transmittance by their closed forms (homogeneous.cpp), with equiangular
@@ -72,6 +76,9 @@ class HeterogeneousMedium : public Medium {
                 fail("the \"%s\" texture (%s) has no finite upper bound %s, so no majorant exists",
                      slot->name(), slot->texture()->toString(), slot->upperBound().toString());
         }
+        m_sigmaAIsSigmaS = m_sigmaS.isTextured() && m_sigmaA.isTextured() &&
+                           !m_sigmaS.texture()->definition().empty() &&
+                           m_sigmaS.texture()->definition() == m_sigmaA.texture()->definition();
         // Negative texture values are clamped to zero, so the bounds are clamped too.
         const Color3f upper =
             m_density * (m_sigmaS.upperBound().max(0.0f) + m_sigmaA.upperBound().max(0.0f));
@@ -172,8 +179,10 @@ class HeterogeneousMedium : public Medium {
                 "homogeneous medium",
                 m_sigmaS.toString(), m_sigmaA.toString(), m_density);
         return absl::StrFormat(
-            "heterogeneous medium, sigmaS %s, sigmaA %s, density %g, majorant %g",
-            m_sigmaS.toString(), m_sigmaA.toString(), m_density, m_majorant);
+            "heterogeneous medium, sigmaS %s, sigmaA %s%s, density %g, majorant %g",
+            m_sigmaS.toString(), m_sigmaA.toString(),
+            m_sigmaAIsSigmaS ? " (written as sigmaS: evaluated once for both)" : "", m_density,
+            m_majorant);
     }
 
   private:
@@ -185,7 +194,8 @@ class HeterogeneousMedium : public Medium {
 
     void coefficients(const Point3f& p, Color3f& sigmaS, Color3f& sigmaA) const {
         sigmaS = m_density * m_sigmaS.eval(Point2f::Zero(), p).max(0.0f);
-        sigmaA = m_density * m_sigmaA.eval(Point2f::Zero(), p).max(0.0f);
+        sigmaA =
+            m_sigmaAIsSigmaS ? sigmaS : m_density * m_sigmaA.eval(Point2f::Zero(), p).max(0.0f);
         // The textures' bounds are true bounds, so this cannot happen unless a texture breaks its
         // contract; a silent clamp would bias the image, so stop with a clear message instead.
         if (!((sigmaS + sigmaA).maxCoeff() <= m_majorant * (1.0f + 1e-5f)))
@@ -194,6 +204,7 @@ class HeterogeneousMedium : public Medium {
     }
 
     TexturedColor m_sigmaS, m_sigmaA;
+    bool m_sigmaAIsSigmaS = false;  // sigmaA's texture is written as sigmaS's: evaluate once
     float m_density = 1.0f;
     bool m_hasDeclaredMajorant = false;
     float m_declaredMajorant = 0.0f;

@@ -207,6 +207,66 @@ TEST(HeterogeneousMedium, ConstantCoefficientsRenderAsHomogeneous) {
     EXPECT_GT(sampler.draws, 0u);
 }
 
+// Fog whose sigmaA is written exactly as its sigmaS (the stage's) evaluates the texture once
+// for both, with the same numbers bit for bit as evaluating each: compared with the same fog
+// whose sigmaA is the same noise written another way (min/max instead of color0/color1), which is
+// evaluated on its own. Texts that differ in any value are not taken for equal.
+TEST(HeterogeneousMedium, SigmaAWrittenAsSigmaSIsEvaluatedOnceWithTheSameNumbers) {
+    const auto fog = [](const std::string& sigmaA) {
+        const std::string noise =
+            "<texture type=\"perlin3d\" name=\"sigmaS\"><!-- clouds -->\n"
+            "  <float name=\"min\" value=\"0.1\"/><float name=\"max\" value=\"0.9\"/>"
+            "<float name=\"frequency\" value=\"2.5\"/><integer name=\"seed\" value=\"3\"/>"
+            "</texture>";
+        return parseAs<Medium>("fog.xml",
+                               "<medium type=\"heterogeneous\">"
+                               "<float name=\"density\" value=\"1.5\"/>" +
+                                   noise + sigmaA + "</medium>");
+    };
+    // The same element: only its name, whitespace and comments differ.
+    auto shared =
+        fog("<texture name=\"sigmaA\"   type=\"perlin3d\">"
+            "<float name=\"min\" value=\"0.1\"/>\n<float name=\"max\" value=\"0.9\"/>"
+            "<float name=\"frequency\" value=\"2.5\"/><integer name=\"seed\" value=\"3\"/>"
+            "</texture>");
+    auto separate =
+        fog("<texture type=\"perlin3d\" name=\"sigmaA\">"
+            "<color name=\"color0\" value=\"0.1\"/><color name=\"color1\" value=\"0.9\"/>"
+            "<float name=\"frequency\" value=\"2.5\"/><integer name=\"seed\" value=\"3\"/>"
+            "</texture>");
+    auto otherSeed =
+        fog("<texture type=\"perlin3d\" name=\"sigmaA\">"
+            "<float name=\"min\" value=\"0.1\"/><float name=\"max\" value=\"0.9\"/>"
+            "<float name=\"frequency\" value=\"2.5\"/><integer name=\"seed\" value=\"4\"/>"
+            "</texture>");
+    const std::string once = "written as sigmaS: evaluated once";
+    EXPECT_NE(shared->toString().find(once), std::string::npos) << shared->toString();
+    EXPECT_EQ(separate->toString().find(once), std::string::npos) << separate->toString();
+    EXPECT_EQ(otherSeed->toString().find(once), std::string::npos) << otherSeed->toString();
+
+    CountingSampler a(31), b(31), c(31);
+    int differences = 0;
+    for (int i = 0; i < 4000; ++i) {
+        const Ray3f ray(Point3f(0.01f * float(i % 97), -0.3f, 0.02f * float(i % 31)),
+                        Vector3f(0.3f, 0.2f, 1.0f).normalized());
+        const float tMax = 0.2f + 0.001f * float(i);
+        int heroA = -1, heroB = -1, heroC = -1;
+        const MediumSample x = shared->sampleDistance(ray, tMax, a, heroA);
+        const MediumSample y = separate->sampleDistance(ray, tMax, b, heroB);
+        const MediumSample z = otherSeed->sampleDistance(ray, tMax, c, heroC);
+        ASSERT_EQ(x.event, y.event) << "sample " << i;
+        ASSERT_EQ(x.t, y.t) << "sample " << i;
+        ASSERT_TRUE((x.weight == y.weight).all() && (x.pdfRatio == y.pdfRatio).all());
+        ASSERT_TRUE(
+            (shared->transmittance(ray, tMax, a) == separate->transmittance(ray, tMax, b)).all())
+            << "sample " << i;
+        differences += x.event != z.event || x.t != z.t;
+        otherSeed->transmittance(ray, tMax, c);
+    }
+    EXPECT_EQ(a.draws, b.draws);
+    EXPECT_GT(differences, 100) << "a different seed gave the same fog";
+}
+
 // Ratio tracking with density c under majorant mu along d: mean e^(-cd), variance
 // e^(-2cd)(e^(c^2 d / mu) - 1). The variance of the sample variance is estimated
 // from the fourth central moment.

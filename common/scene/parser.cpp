@@ -3,6 +3,7 @@
 #include "common/scene/scene.h"
 
 #include <absl/strings/ascii.h>
+#include <absl/strings/str_cat.h>
 #include <absl/strings/str_replace.h>
 #include <absl/strings/str_split.h>
 #include <pugixml.hpp>
@@ -354,6 +355,7 @@ class Parser {
         }
         std::shared_ptr<Object> object = ObjectFactory::create(kind, type, props);
         if (object->kind() != kind) failAt(node, "type \"%s\" is not a %s", type, node.name());
+        object->setDefinition(definitionOf(node, true));
         for (auto& [child, name] : children) object->addChild(child, name);
         object->activate();
         // A property the plugin never read is most likely misspelt: when it is close to one the
@@ -372,6 +374,24 @@ class Parser {
                                          unused, element);
         }
         return object;
+    }
+
+    // An element as written, for Object::definition: its tag, its attributes (all but the name
+    // its parent takes it under) and its elements, recursively; comments and whitespace are not
+    // part of it. Values are prefixed by their length, so no value can pass for others. -D
+    // parameters are substituted later, the same way in equal text.
+    static std::string definitionOf(const pugi::xml_node& node, bool top) {
+        std::string out = node.name();
+        for (const pugi::xml_attribute& attribute : node.attributes()) {
+            if (top && std::string_view(attribute.name()) == "name") continue;
+            const std::string value = attribute.value();
+            absl::StrAppend(&out, " ", attribute.name(), "=", value.size(), ":", value);
+        }
+        out += "{";
+        for (const pugi::xml_node& child : node.children())
+            if (child.type() == pugi::node_element) out += definitionOf(child, false);
+        out += "}";
+        return out;
     }
 
     void parseProperty(const pugi::xml_node& node, Tag tag, PropertyList& props) {

@@ -1105,41 +1105,25 @@ TEST_F(CoordinatorJob, SlowCheckpointsStretchTheInterval) {
         ASSERT_EQ(coordinator.report(render(lease, worker, compressed), compressed),
                   v1::RESULT_MERGED);
     };
-    const auto checkpoints = [&] {
+    // Merges a unit, lets `seconds` pass and ticks; returns the checkpoints written so far.
+    const auto mergeWaitTick = [&](double seconds) {
+        mergeOne();
+        clock->advance(seconds);
+        coordinator.tick();
         return coordinator.listJobs(jobId).at(0).checkpoints_written();
     };
     // Quick writes: every 10 s.
-    mergeOne();
-    clock->advance(10);
-    coordinator.tick();
-    ASSERT_EQ(checkpoints(), 1u);
-    mergeOne();
-    clock->advance(10);
-    coordinator.tick();
-    ASSERT_EQ(checkpoints(), 2u);
+    ASSERT_EQ(mergeWaitTick(10), 1u);
+    ASSERT_EQ(mergeWaitTick(10), 2u);
     // A write of 2 s: the next round waits 40 s, not 10.
     writeSeconds = 2;
-    mergeOne();
-    clock->advance(10);
-    coordinator.tick();
-    ASSERT_EQ(checkpoints(), 3u);
-    mergeOne();
-    clock->advance(30);
-    coordinator.tick();
-    EXPECT_EQ(checkpoints(), 3u) << "a slow checkpoint did not stretch the interval";
-    clock->advance(11);
-    coordinator.tick();
-    EXPECT_EQ(checkpoints(), 4u);
+    ASSERT_EQ(mergeWaitTick(10), 3u);
+    EXPECT_EQ(mergeWaitTick(30), 3u) << "a slow checkpoint did not stretch the interval";
+    EXPECT_EQ(mergeWaitTick(11), 4u);
     // Quick again: back to 10 s after the next round.
     writeSeconds = 0.1;
-    mergeOne();
-    clock->advance(41);
-    coordinator.tick();
-    ASSERT_EQ(checkpoints(), 5u);
-    mergeOne();
-    clock->advance(10);
-    coordinator.tick();
-    EXPECT_EQ(checkpoints(), 6u);
+    ASSERT_EQ(mergeWaitTick(41), 5u);
+    EXPECT_EQ(mergeWaitTick(10), 6u);
     coordinator.setDurableWriteHooks({});
     coordinator.stop();
 }

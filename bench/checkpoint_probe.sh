@@ -8,20 +8,20 @@
 #        alphorn-coordinator and alphorn-worker; run from the repository's top)
 set -euo pipefail
 bin=$1 seconds=${2:-75} label=${3:-$1}
-err=$(mktemp)
-"$bin/alphorn" cluster --workers 2 --render scenes/stage/stage_seed.xml --passes 64 \
-    -o "$(mktemp -d)/probe.exr" >/dev/null 2>"$err" &
+dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
+"$bin/alphorn" cluster --workers 2 --state-dir "$dir" --render scenes/stage/stage_seed.xml \
+    --passes 64 -o "$dir/probe.exr" >/dev/null 2>&1 &
 cli=$!
 sleep "$seconds"
-coordinator=$(pgrep -f "$bin/alphorn-coordinator")
+coordinator=$(pgrep -f "alphorn-coordinator .*$dir/state")
 read -r user sys < <(awk '{print $14, $15}' "/proc/$coordinator/stat")
-logs=$(grep -o "/tmp/alphorn-cluster-[A-Za-z0-9]*" "$err" | head -1)
 kill -INT "$cli"
 wait "$cli" || true
 ticks=$(getconf CLK_TCK)
 awk -v l="$label" -v u="$user" -v s="$sys" -v t="$ticks" -v w="$seconds" \
     'BEGIN {printf "%s: coordinator CPU user %.2f s, sys %.2f s over %s s\n", l, u / t, s / t, w}'
-grep checkpoint.written "$logs/coordinator.log" | sed 's/.*ms=//' |
+grep checkpoint.written "$dir/coordinator.log" | sed 's/.*ms=//' |
     awk -v l="$label" '{s += $1; n++; a[n] = $1}
         END {printf "%s: %d checkpoints, mean %.0f ms:", l, n, n ? s / n : 0;
              for (i = 1; i <= n; i++) printf " %s", a[i]; print ""}'

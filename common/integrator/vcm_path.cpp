@@ -396,7 +396,9 @@ std::shared_ptr<const PassData> BidirectionalIntegrator::preparePass(const Scene
     std::vector<Chunk> results(chunks);
     tbb::parallel_for(size_t{0}, chunks, [&](size_t c) {
         std::unique_ptr<Sampler> sampler = scene.sampler()->clone();
-        Chunk& chunk = results[c];
+        // Filled here and moved in at the end: neighbouring chunks share cache lines, which two
+        // threads must not write at every vertex.
+        Chunk chunk;
         const uint64_t end = std::min(count, uint64_t(c + 1) * kChunk);
         for (uint64_t i = uint64_t(c) * kChunk; i < end; ++i) {
             sampler->startStream(seed, pass, i, StreamPurpose::Photon);
@@ -404,6 +406,7 @@ std::shared_ptr<const PassData> BidirectionalIntegrator::preparePass(const Scene
             traceLightPath(scene, *sampler, strategies, chunk.vertices, chunk.splats);
             chunk.lengths.push_back(chunk.vertices.size() - before);
         }
+        results[c] = std::move(chunk);
     });
     size_t total = 0;
     for (const Chunk& chunk : results) total += chunk.vertices.size();

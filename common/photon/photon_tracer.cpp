@@ -251,13 +251,16 @@ TracedPhotons tracePhotons(const Scene& scene, uint64_t seed, uint64_t pass, uin
     std::vector<std::vector<Photon>> stored(chunks);
     tbb::parallel_for(uint64_t(0), chunks, [&](uint64_t c) {
         std::unique_ptr<Sampler> sampler = scene.sampler()->clone();
-        std::vector<Photon>& out = stored[c];
+        // Filled here and moved in at the end: neighbouring chunks' vector headers share cache
+        // lines, which two threads must not write at every photon.
+        std::vector<Photon> out;
         const uint64_t end = std::min(count, (c + 1) * kChunk);
         out.reserve(2 * (end - c * kChunk));  // most paths store one or two photons
         for (uint64_t i = c * kChunk; i < end; ++i) {
             sampler->startStream(seed, pass, i, StreamPurpose::Photon);
             tracePhoton(scene, *sampler, direct, out);
         }
+        stored[c] = std::move(out);
     });
     // Concatenate in chunk order: the map's content is the same for any scheduling.
     result.surface = concatenate(stored);
@@ -279,17 +282,23 @@ TracedPhotons tracePhotonsThroughMedia(const Scene& scene, uint64_t seed, uint64
     std::vector<std::vector<const Medium*>> volumeMedia(chunks);
     tbb::parallel_for(uint64_t(0), chunks, [&](uint64_t c) {
         std::unique_ptr<Sampler> sampler = scene.sampler()->clone();
+        // Filled here and moved in at the end (see tracePhotons).
+        std::vector<Photon> chunkSurface, chunkVolume;
+        std::vector<const Medium*> chunkVolumeMedia;
         const uint64_t end = std::min(count, (c + 1) * kChunk);
         for (uint64_t i = c * kChunk; i < end; ++i) {
             sampler->startStream(seed, pass, i, StreamPurpose::Photon);
             PhotonOutputs out;
-            if (i < surfaceCount) out.surface = &surface[c];
+            if (i < surfaceCount) out.surface = &chunkSurface;
             if (i < volumeCount) {
-                out.volume = &volume[c];
-                out.volumeMedia = &volumeMedia[c];
+                out.volume = &chunkVolume;
+                out.volumeMedia = &chunkVolumeMedia;
             }
             tracePhotonThroughMedia(scene, *sampler, mediaBox, startMedia, direct, out);
         }
+        surface[c] = std::move(chunkSurface);
+        volume[c] = std::move(chunkVolume);
+        volumeMedia[c] = std::move(chunkVolumeMedia);
     });
     result.surface = concatenate(surface);
     result.volume = concatenate(volume);

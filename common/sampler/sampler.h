@@ -8,7 +8,11 @@
 
 namespace alphorn {
 
-class Sampler : public Object {
+// Every sampler has cache lines of its own (alignas pads the object and its clones' heap blocks):
+// a sampler's state is written at every draw, and a clone sharing a line with another thread's
+// hot data made two-thread renders up to 1.5x slower, depending on where the heap happened to
+// put it (bench/RESULTS.md, "False sharing").
+class alignas(128) Sampler : public Object {
   public:
     ObjectKind kind() const override { return ObjectKind::Sampler; }
 

@@ -11,11 +11,18 @@ Alphorn reference (relative RMSE of luminance, bench_atlas_render's definition) 
 equal-time error ratios are the square roots of its ratios. The reference's own noise is
 measured by a second reference of another seed and printed beside the results; errors near it
 mean nothing. pbrt is built by bench/peers/build-pbrt-v3.sh.
+
+The longest rung, which the efficiency ratios use, is rendered --repeats times, interleaved:
+Alphorn with seeds 1, 2, ... (its error is the root of the mean square over them, so the ratio
+does not move with one image's luck), pbrt again on the same scene (it takes no seed: its image
+is the same each time); each time is the median over the repeats, which this VM's drift of its
+speed from minute to minute otherwise puts into the ratio.
 """
 import argparse
 import csv
 import os
 import resource
+import statistics
 import subprocess
 import sys
 import time
@@ -89,6 +96,8 @@ def main():
     parser.add_argument("--size", type=int, default=256, help="image width and height, pixels")
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--reference-spp", type=int, default=4096)
+    parser.add_argument("--repeats", type=int, default=3,
+                        help="renders of each renderer and sampler at the longest rung")
     parser.add_argument("--out", default=os.path.join(TOP, "out", "peers"))
     parser.add_argument("--quick", action="store_true", help="small ladders and references (a smoke run)")
     args = parser.parse_args()
@@ -96,6 +105,7 @@ def main():
     ladder = [4, 16] if args.quick else [4, 16, 64, 256]
     photon_ladder = [4, 16] if args.quick else [16, 64, 256]
     reference_spp = 64 if args.quick else args.reference_spp
+    repeats = max(1, args.repeats)
     photons, radius = (20000, 0.04) if args.quick else (100000, 0.04)
 
     # Start-up (parsing the scene, building the BVH, writing the image) is not rendering: each
@@ -126,46 +136,53 @@ def main():
         print("%s: reference noise (relative RMSE) %.5f" % (label, reference_noise), flush=True)
         for spp in ladder:
             # Alternate renderers within each rung, so both see the same load.
-            for renderer, sampler in (("alphorn", "independent"), ("pbrt", "random"),
-                                      ("alphorn", "sobol"), ("pbrt", "halton"), ("pbrt", "sobol")):
-                out = os.path.join(peers.images, "%s_%s_%s_%d.exr" % (stem, renderer, sampler, spp))
-                if renderer == "alphorn":
-                    wall, cpu = peers.alphorn(stem, dict(defines, sampler=sampler), spp, 1, out)
-                else:
-                    wall, cpu = peers.pbrt(stem, pbrt_integrator, sampler, spp, out)
-                err = peers.error(out, references[0])
-                rows.append(dict(scene=label, renderer=renderer, sampler=sampler, spp=spp,
-                                 wall_seconds=wall, cpu_seconds=cpu, relative_rmse=err,
-                                 reference_noise=reference_noise,
-                                 startup_wall_seconds=startup[renderer][0],
-                                 startup_cpu_seconds=startup[renderer][1]))
-                print("  %-12s %-5s %-11s %4d spp: rmse %.5f wall %6.2f s cpu %6.2f s"
-                      % (label, renderer, sampler, spp, err, wall, cpu), flush=True)
+            for repeat in range(repeats if spp == ladder[-1] else 1):
+                seed = 1 + repeat
+                for renderer, sampler in (("alphorn", "independent"), ("pbrt", "random"),
+                                          ("alphorn", "sobol"), ("pbrt", "halton"),
+                                          ("pbrt", "sobol")):
+                    out = os.path.join(peers.images,
+                                       "%s_%s_%s_%d_%d.exr" % (stem, renderer, sampler, spp, seed))
+                    if renderer == "alphorn":
+                        wall, cpu = peers.alphorn(stem, dict(defines, sampler=sampler), spp, seed,
+                                                  out)
+                    else:
+                        wall, cpu = peers.pbrt(stem, pbrt_integrator, sampler, spp, out)
+                    err = peers.error(out, references[0])
+                    rows.append(dict(scene=label, renderer=renderer, sampler=sampler, spp=spp,
+                                     repeat=repeat, wall_seconds=wall, cpu_seconds=cpu,
+                                     relative_rmse=err, reference_noise=reference_noise,
+                                     startup_wall_seconds=startup[renderer][0],
+                                     startup_cpu_seconds=startup[renderer][1]))
+                    print("  %-12s %-5s %-11s %4d spp: rmse %.5f wall %6.2f s cpu %6.2f s"
+                          % (label, renderer, sampler, spp, err, wall, cpu), flush=True)
 
     # Photon mapping against the path-traced reference of the same box (both converge to it).
     references = [os.path.join(peers.images, "box_reference_%d.exr" % s) for s in (101, 102)]
     reference_noise = peers.error(references[1], references[0]) / 2 ** 0.5
     for passes in photon_ladder:
-        for renderer in ("alphorn", "pbrt"):
-            out = os.path.join(peers.images, "photons_%s_%d.exr" % (renderer, passes))
-            if renderer == "alphorn":
-                wall, cpu = peers.alphorn("box_photons", {"sampler": "sobol", "photons": photons,
-                                                          "radius": radius}, passes, 1, out)
-                sampler = "sobol"
-            else:
-                integrator = ('Integrator "sppm" "integer numiterations" [%d] "integer '
-                              'photonsperiteration" [%d] "float radius" [%g] "integer maxdepth" [64]'
-                              % (passes, photons, radius))
-                wall, cpu = peers.pbrt("box", integrator, "random", 1, out)
-                sampler = "random"
-            err = peers.error(out, references[0])
-            rows.append(dict(scene="photon mapping", renderer=renderer, sampler=sampler,
-                             spp=passes, wall_seconds=wall, cpu_seconds=cpu, relative_rmse=err,
-                             reference_noise=reference_noise,
-                             startup_wall_seconds=startup[renderer][0],
-                             startup_cpu_seconds=startup[renderer][1]))
-            print("  photons      %-5s %4d passes: rmse %.5f wall %6.2f s cpu %6.2f s"
-                  % (renderer, passes, err, wall, cpu), flush=True)
+        for repeat in range(repeats if passes == photon_ladder[-1] else 1):
+            seed = 1 + repeat
+            for renderer in ("alphorn", "pbrt"):
+                out = os.path.join(peers.images, "photons_%s_%d_%d.exr" % (renderer, passes, seed))
+                if renderer == "alphorn":
+                    wall, cpu = peers.alphorn("box_photons", {"sampler": "sobol", "photons": photons,
+                                                              "radius": radius}, passes, seed, out)
+                    sampler = "sobol"
+                else:
+                    integrator = ('Integrator "sppm" "integer numiterations" [%d] "integer '
+                                  'photonsperiteration" [%d] "float radius" [%g] "integer '
+                                  'maxdepth" [64]' % (passes, photons, radius))
+                    wall, cpu = peers.pbrt("box", integrator, "random", 1, out)
+                    sampler = "random"
+                err = peers.error(out, references[0])
+                rows.append(dict(scene="photon mapping", renderer=renderer, sampler=sampler,
+                                 spp=passes, repeat=repeat, wall_seconds=wall, cpu_seconds=cpu,
+                                 relative_rmse=err, reference_noise=reference_noise,
+                                 startup_wall_seconds=startup[renderer][0],
+                                 startup_cpu_seconds=startup[renderer][1]))
+                print("  photons      %-5s %4d passes: rmse %.5f wall %6.2f s cpu %6.2f s"
+                      % (renderer, passes, err, wall, cpu), flush=True)
 
     csv_path = os.path.join(args.out, "peers.csv")
     with open(csv_path, "w", newline="") as f:
@@ -173,32 +190,37 @@ def main():
         writer.writeheader()
         writer.writerows(rows)
 
-    # Equal-time efficiency at the longest rung: Alphorn's best sampler against pbrt's best. The
-    # error's square has the reference's own noise taken off (independent noises add in
-    # variance); times are rendering only (start-up off), and with start-up in brackets.
-    def efficiency(r, seconds_key, startup_key):
-        variance = max(r["relative_rmse"] ** 2 - r["reference_noise"] ** 2, 1e-12)
-        render = max(r[seconds_key] - r[startup_key], 1e-3)
-        return 1.0 / (variance * render), 1.0 / (variance * r[seconds_key])
+    # Equal-time efficiency at the longest rung: Alphorn's best sampler against pbrt's best, over
+    # the repeats (mean squared error, median time). The error's square has the reference's own
+    # noise taken off (independent noises add in variance); times are rendering only (start-up
+    # off), and with start-up in brackets.
+    def efficiency(group, seconds_key, startup_key):
+        mean_square = statistics.fmean(r["relative_rmse"] ** 2 for r in group)
+        variance = max(mean_square - group[0]["reference_noise"] ** 2, 1e-12)
+        seconds = statistics.median(r[seconds_key] for r in group)
+        render = max(seconds - group[0][startup_key], 1e-3)
+        return 1.0 / (variance * render), 1.0 / (variance * seconds)
 
     print("\n| scene (longest rung) | Alphorn | pbrt-v3 | relative RMSE, Alphorn / pbrt | "
           "efficiency ratio, CPU time (with start-up) | wall time (with start-up) |")
     print("|---|---|---|---|---:|---:|")
     for scene in ("path tracing", "fog", "photon mapping"):
         last = max(r["spp"] for r in rows if r["scene"] == scene)
-        best = {}
+        groups = {}
         for r in rows:
-            if r["scene"] != scene or r["spp"] != last:
-                continue
-            cpu = efficiency(r, "cpu_seconds", "startup_cpu_seconds")
-            wall = efficiency(r, "wall_seconds", "startup_wall_seconds")
-            if r["renderer"] not in best or cpu[0] > best[r["renderer"]][0][0]:
-                best[r["renderer"]] = (cpu, wall, r)
+            if r["scene"] == scene and r["spp"] == last:
+                groups.setdefault((r["renderer"], r["sampler"]), []).append(r)
+        best = {}
+        for (renderer, sampler), group in groups.items():
+            cpu = efficiency(group, "cpu_seconds", "startup_cpu_seconds")
+            wall = efficiency(group, "wall_seconds", "startup_wall_seconds")
+            rmse = statistics.fmean(r["relative_rmse"] ** 2 for r in group) ** 0.5
+            if renderer not in best or cpu[0] > best[renderer][0][0]:
+                best[renderer] = (cpu, wall, sampler, rmse)
         a, p = best["alphorn"], best["pbrt"]
         print("| %s (%d spp) | %s | %s | %.4f / %.4f | %.2f× (%.2f×) | %.2f× (%.2f×) |"
-              % (scene, last, a[2]["sampler"], p[2]["sampler"], a[2]["relative_rmse"],
-                 p[2]["relative_rmse"], a[0][0] / p[0][0], a[0][1] / p[0][1], a[1][0] / p[1][0],
-                 a[1][1] / p[1][1]))
+              % (scene, last, a[2], p[2], a[3], p[3], a[0][0] / p[0][0], a[0][1] / p[0][1],
+                 a[1][0] / p[1][0], a[1][1] / p[1][1]))
     print("\ncsv: %s" % csv_path)
 
 

@@ -40,11 +40,13 @@ PhotonHashGrid::PhotonHashGrid(const Photon* photons, size_t count, float maxRad
     for (size_t b = 0; b < buckets; ++b) m_bucketStart[b + 1] += m_bucketStart[b];
     m_order.resize(count);
     m_photons.resize(count);
+    m_positions.resize(count);
     std::vector<uint32_t> next(m_bucketStart.begin(), m_bucketStart.end() - 1);
     for (size_t i = 0; i < count; ++i) {
         const uint32_t e = next[bucket[i]]++;
         m_order[e] = static_cast<uint32_t>(i);
         m_photons[e] = photons[i];
+        m_positions[e] = photons[i].position;
     }
 }
 

@@ -76,17 +76,32 @@ class PhotonHashGrid {
                     for (size_t s = 0; s < bucketCount; ++s) seen |= buckets[s] == b;
                     if (!seen && bucketCount < buckets.size()) buckets[bucketCount++] = b;
                 }
+        // Each bucket is scanned in batches: first the distances, collecting the entries
+        // inside without a branch (about one photon in five is, at random: a branch per photon
+        // mispredicted often enough to cost more than the arithmetic), then f for each. The
+        // scan reads only the positions, kept apart from the rest of each photon.
+        constexpr uint32_t kBatch = 64;
+        uint32_t inside[kBatch];
+        float insideDistance2[kBatch];
         for (size_t s = 0; s < bucketCount; ++s) {
             const uint32_t b = buckets[s];
-            for (uint32_t e = m_bucketStart[b]; e < m_bucketStart[b + 1]; ++e) {
-                const Point3f& p = m_photons[e].position;
-                // The same arithmetic as nanoflann's L2 metric, term by term.
-                float d2 = 0.0f;
-                for (int a = 0; a < 3; ++a) {
-                    const float diff = x[a] - p[a];
-                    d2 += diff * diff;
+            const uint32_t end = m_bucketStart[b + 1];
+            for (uint32_t first = m_bucketStart[b]; first < end; first += kBatch) {
+                const uint32_t last = std::min(end, first + kBatch);
+                uint32_t count = 0;
+                for (uint32_t e = first; e < last; ++e) {
+                    const Point3f& p = m_positions[e];
+                    // The same arithmetic as nanoflann's L2 metric, term by term.
+                    float d2 = 0.0f;
+                    for (int a = 0; a < 3; ++a) {
+                        const float diff = x[a] - p[a];
+                        d2 += diff * diff;
+                    }
+                    inside[count] = e;
+                    insideDistance2[count] = d2;
+                    count += d2 < radius2 ? 1u : 0u;
                 }
-                if (d2 < radius2) f(e, d2);
+                for (uint32_t i = 0; i < count; ++i) f(inside[i], insideDistance2[i]);
             }
         }
     }
@@ -112,6 +127,7 @@ class PhotonHashGrid {
     std::vector<uint32_t> m_bucketStart;  // bucket b holds entries [start[b], start[b + 1])
     std::vector<uint32_t> m_order;        // photon index of each entry
     std::vector<Photon> m_photons;        // the photon of each entry (locality)
+    std::vector<Point3f> m_positions;     // its position, apart: the scan reads only these
 };
 
 }  // namespace alphorn

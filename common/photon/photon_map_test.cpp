@@ -129,6 +129,28 @@ TEST(PhotonMap, GridHandlesPhotonsOnCellFacesAndDuplicates) {
     }
 }
 
+TEST(PhotonMap, GridScansCrowdedCellsAcrossItsBatchesInIndexOrder) {
+    // The scan works through a bucket in batches of entries; a cell holding several batches'
+    // worth, some inside the query sphere and some not, must yield exactly the photons inside,
+    // in photon-index order, whatever the batch boundaries. The photons fill a cube smaller
+    // than a cell (side 2.0002 r) from the grid's origin: one cell, one bucket.
+    const float radius = 0.1f;
+    std::vector<Photon> photons = randomPhotons(1000, 5, 0.19f);
+    for (Photon& photon : photons) photon.position += Vector3f(0.5f, 0.5f, 0.5f);
+    PhotonHashGrid grid(photons.data(), photons.size(), radius);
+    size_t total = 0;
+    for (float r : {0.01f, 0.05f, radius}) {
+        for (uint64_t q = 0; q < 50; ++q) {
+            const Point3f x = photons[(q * 7919) % photons.size()].position;
+            std::vector<uint32_t> fromGrid;
+            grid.forEachWithin(x, r, [&](uint32_t i, float) { fromGrid.push_back(i); });
+            EXPECT_EQ(fromGrid, bruteForceWithin(photons, x, r)) << "radius " << r;
+            total += fromGrid.size();
+        }
+    }
+    EXPECT_GT(total, 5000u);
+}
+
 TEST(PhotonMap, NearestNeighboursMatchBruteForceAndRespectTheSearchRadius) {
     const std::vector<Photon> photons = randomPhotons(5000, 3);
     PhotonMap map(photons, PhotonMap::Lookup::Nearest);

@@ -24,7 +24,7 @@ FilmBlock::FilmBlock(int x0, int y0, int width, int height, PassHalves halves,
                        : 0) {}
 
 void FilmBlock::clear() {
-    for (std::vector<PixelSum>* sums : {&m_pixels, &m_odd, &m_smaller, &m_smallerOdd})
+    for (Sums* sums : {&m_pixels, &m_odd, &m_smaller, &m_smallerOdd})
         std::fill(sums->begin(), sums->end(), PixelSum{});
     invalidSamples = 0;
 }
@@ -35,9 +35,8 @@ void FilmBlock::copyRows(const FilmBlock& from, int yBegin, int yEnd) {
         from.m_smallerRadius != m_smallerRadius)
         fail("cannot copy rows between blocks of different shapes or layouts");
     const size_t begin = size_t(yBegin - m_y0) * m_width, end = size_t(yEnd - m_y0) * m_width;
-    const std::vector<PixelSum>* source[] = {&from.m_pixels, &from.m_odd, &from.m_smaller,
-                                             &from.m_smallerOdd};
-    std::vector<PixelSum>* target[] = {&m_pixels, &m_odd, &m_smaller, &m_smallerOdd};
+    const Sums* source[] = {&from.m_pixels, &from.m_odd, &from.m_smaller, &from.m_smallerOdd};
+    Sums* target[] = {&m_pixels, &m_odd, &m_smaller, &m_smallerOdd};
     for (int i = 0; i < 4; ++i)
         if (!target[i]->empty())
             std::copy(source[i]->begin() + begin, source[i]->begin() + end,
@@ -111,7 +110,7 @@ static_assert(sizeof(PixelSum) == 64, "PixelSum must be four packed 128-bit inte
 std::vector<std::string_view> FilmBlock::serializedParts() const {
     // x86-64 and aarch64 are little-endian; the bytes are the in-memory integers.
     std::vector<std::string_view> parts;
-    for (const std::vector<PixelSum>* sums : {&m_pixels, &m_odd, &m_smaller, &m_smallerOdd})
+    for (const Sums* sums : {&m_pixels, &m_odd, &m_smaller, &m_smallerOdd})
         if (!sums->empty())
             parts.emplace_back(reinterpret_cast<const char*>(sums->data()),
                                sums->size() * sizeof(PixelSum));
@@ -143,7 +142,7 @@ void FilmBlock::deserialize(const std::string& bytes) {
              m_pixels.size() * bytesPerPixel(), m_width, m_height);
     }
     size_t offset = 0;
-    for (std::vector<PixelSum>* sums : {&m_pixels, &m_odd, &m_smaller, &m_smallerOdd}) {
+    for (Sums* sums : {&m_pixels, &m_odd, &m_smaller, &m_smallerOdd}) {
         if (sums->empty()) continue;
         std::memcpy(sums->data(), bytes.data() + offset, sums->size() * sizeof(PixelSum));
         offset += sums->size() * sizeof(PixelSum);

@@ -16,6 +16,7 @@
 #pragma once
 
 #include "common/core/color.h"
+#include "common/core/huge_page_allocator.h"
 #include "common/core/image.h"
 
 #include <cmath>
@@ -144,10 +145,12 @@ class FilmBlock {
     int m_x0 = 0, m_y0 = 0, m_width = 0, m_height = 0;
     PassHalves m_halves = PassHalves::Kept;
     SmallerRadius m_smallerRadius = SmallerRadius::None;
-    std::vector<PixelSum> m_pixels;
-    std::vector<PixelSum> m_odd;         // empty unless the halves are kept
-    std::vector<PixelSum> m_smaller;     // empty unless the smaller radius is kept
-    std::vector<PixelSum> m_smallerOdd;  // empty unless both are kept
+    // Image-sized films are large (32 MiB for 512 x 512 with halves): huge pages.
+    using Sums = std::vector<PixelSum, HugePageAllocator<PixelSum>>;
+    Sums m_pixels;
+    Sums m_odd;         // empty unless the halves are kept
+    Sums m_smaller;     // empty unless the smaller radius is kept
+    Sums m_smallerOdd;  // empty unless both are kept
 };
 
 class ReconstructionFilter;

@@ -71,8 +71,8 @@ struct GatherResult {
 
 // Sums the luminance of the photons within `radius` of every query point.
 template <typename Index>
-GatherResult gather(const Index& index, const std::vector<Photon>& photons,
-                    const std::vector<Point3f>& points, float radius) {
+GatherResult gather(const Index& index, const Photons& photons, const std::vector<Point3f>& points,
+                    float radius) {
     GatherResult r;
     const auto start = std::chrono::steady_clock::now();
     for (const Point3f& x : points) {
@@ -129,7 +129,7 @@ int main(int argc, char** argv) {
             std::printf("trace, %d thread(s): median %.2f M photons emitted/s/core\n", threads,
                         median(rates) * 1e-6);
         }
-        const std::vector<Photon>& photons = traced.surface;
+        const Photons& photons = traced.surface;
         const std::vector<Point3f> points = queryPoints(*scene, 100000);
         std::printf("%zu stored photons, %zu query points\n", photons.size(), points.size());
 

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <memory>
 #include <new>
+#include <vector>
 
 namespace alphorn {
 
@@ -51,5 +52,9 @@ struct HugePageAllocator {
         return true;
     }
 };
+
+// A std::vector whose large buffers use huge pages (per-pass photon arrays of tens of MiB).
+template <typename T>
+using HugePageVector = std::vector<T, HugePageAllocator<T>>;
 
 }  // namespace alphorn

@@ -78,8 +78,8 @@ float PhotonMappingIntegrator::passRadiusScale(uint64_t pass) const {
     return m_progressive ? static_cast<float>(progressiveRadius(1.0, m_alpha, pass)) : 1.0f;
 }
 
-void PhotonMappingIntegrator::setSurfaceMap(PhotonPassData& data, std::vector<Photon> photons,
-                                            uint64_t emitted, uint64_t pass) const {
+void PhotonMappingIntegrator::setSurfaceMap(PhotonPassData& data, Photons photons, uint64_t emitted,
+                                            uint64_t pass) const {
     // kNN maps keep the search radius as given: progressive mode shrinks each query's kNN
     // radius instead (surfaceRadiusScale).
     const float radius = m_surfaceK > 0 ? m_surfaceRadius : passRadius(m_surfaceRadius, pass);
@@ -126,7 +126,7 @@ template <typename Weight>
 Color3f shrunkNearestNeighbourEstimate(const PhotonMap& map, const Point3f& x, size_t k,
                                        float maxRadius, float scale, Weight&& weight) {
     const auto [neighbors, candidates, radius2] = nearestDisk(map, x, k, maxRadius);
-    const std::vector<Photon>& photons = map.photons();
+    const Photons& photons = map.photons();
     const double scaled2 = double(scale) * double(scale) * radius2;
     Color3f sum(0.0f);
     // Closest first: the photons inside the inner disk are a prefix.
@@ -145,7 +145,7 @@ template <typename Weight>
 TwoRadiiRadiance nearestNeighbourEstimateTwoScales(const PhotonMap& map, const Point3f& x, size_t k,
                                                    float maxRadius, float scale, Weight&& weight) {
     const auto [neighbors, candidates, radius2] = nearestDisk(map, x, k, maxRadius);
-    const std::vector<Photon>& photons = map.photons();
+    const Photons& photons = map.photons();
     // At scale 1 every candidate counts (as nearestNeighbourEstimate() counts them), whatever
     // the rounding of the search radius.
     const bool shrunk = scale != 1.0f;

@@ -50,7 +50,7 @@ class PhotonMappingIntegrator : public Integrator {
         return m_sampleDirectLight ? DirectPhotons::Skip : DirectPhotons::Store;
     }
     // Fills `data`'s surface map from `photons`, whose paths numbered `emitted`.
-    void setSurfaceMap(PhotonPassData& data, std::vector<Photon> photons, uint64_t emitted,
+    void setSurfaceMap(PhotonPassData& data, Photons photons, uint64_t emitted,
                        uint64_t pass) const;
     // Radiance leaving the non-delta surface `its` towards wi (local), from the surface photons.
     Color3f reflectedRadiance(const PhotonPassData& data, const Intersection& its, const BSDF& bsdf,

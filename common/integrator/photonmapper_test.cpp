@@ -225,8 +225,8 @@ TEST_F(PhotonMapperTest, SampledDirectLightLeavesOnlyDirectPhotonsOut) {
     auto indirect = load(params, pointLightUnderMirror());  // "nee", the default
     const auto allPass = all->integrator()->preparePass(*all, 5, 0);
     const auto indirectPass = indirect->integrator()->preparePass(*indirect, 5, 0);
-    const std::vector<Photon>& full = passData(allPass).surface.photons();
-    const std::vector<Photon>& kept = passData(indirectPass).surface.photons();
+    const Photons& full = passData(allPass).surface.photons();
+    const Photons& kept = passData(indirectPass).surface.photons();
     // About half the photons go down and land directly; about 0.3% reach the mirror.
     EXPECT_GT(full.size(), 15000u);
     ASSERT_GT(kept.size(), 40u) << "the mirrored photons are lost";

@@ -59,7 +59,7 @@ struct BidirectionalPassData : PassData {
     float mergeRadius = 0.0f;
     // Non-delta light vertices 1.. as photons for the merge grid, which reads their positions;
     // a merge reads the vertex itself through mergeVertex.
-    std::vector<Photon> mergePoints;
+    Photons mergePoints;
     std::vector<uint32_t> mergeVertex;  // index into lightVertices of each merge point
     std::vector<uint32_t> mergeDepth;   // its index in its light subpath
     PhotonHashGrid mergeGrid;

@@ -328,7 +328,7 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
         // crossedBy() returns the photons by increasing t, ties by index.
         const Normal3f wallNormal = wall ? wall->geometricNormal() : Normal3f::UnitZ();
         const float cameraSide = wall ? (line.origin - wall->p).dot(wallNormal) : 0.0f;
-        const std::vector<Photon>& photons = data.volume.photons();
+        const Photons& photons = data.volume.photons();
         Color3f beam(0.0f), smallerBeam(0.0f), emitted(0.0f);
         size_t next = 0;
         auto emitUpTo = [&](float t) {

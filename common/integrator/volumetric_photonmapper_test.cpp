@@ -166,8 +166,8 @@ TEST_F(VolumetricPhotonMapperTest, SampledDirectLightLeavesOutOnlyUnscatteredSur
     EXPECT_EQ(std::memcmp(a.volume.photons().data(), b.volume.photons().data(),
                           a.volume.size() * sizeof(Photon)),
               0);
-    const std::vector<Photon>& full = a.surface.photons();
-    const std::vector<Photon>& kept = b.surface.photons();
+    const Photons& full = a.surface.photons();
+    const Photons& kept = b.surface.photons();
     // Fog of sigmaS 1 in a box of side 2: about a third of the light crosses it unscattered.
     EXPECT_LT(kept.size(), full.size() - 300);
     EXPECT_GT(kept.size(), full.size() / 3);

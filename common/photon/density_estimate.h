@@ -56,7 +56,7 @@ Color3f nearestNeighbourEstimate(const PhotonMap& map, const Point3f& x, size_t 
     thread_local std::vector<PhotonNeighbor> neighbors;
     if (neighbors.size() < k) neighbors.resize(k);
     const size_t found = map.nearest(x, k, maxRadius, neighbors.data());
-    const std::vector<Photon>& photons = map.photons();
+    const Photons& photons = map.photons();
     Color3f sum(0.0f);
     double radius2 = double(maxRadius) * double(maxRadius);
     size_t used = found;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "common/core/color.h"
+#include "common/core/huge_page_allocator.h"
 
 namespace alphorn {
 
@@ -18,5 +19,9 @@ struct Photon {
     // valid for any normalisation (the estimators multiply by 1 / emitted, in double).
     Color3f power;
 };
+
+// A pass's photons: a million of them take tens of MiB, allocated anew every pass, so they live
+// on huge pages (huge_page_allocator.h).
+using Photons = HugePageVector<Photon>;
 
 }  // namespace alphorn

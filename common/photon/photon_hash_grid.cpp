@@ -24,7 +24,7 @@ PhotonHashGrid::PhotonHashGrid(const Photon* photons, size_t count, float maxRad
     const uint32_t buckets = std::bit_ceil(static_cast<uint32_t>(2 * count));
     m_bucketMask = buckets - 1;
 
-    std::vector<uint32_t> bucket(count);
+    HugePageVector<uint32_t> bucket(count);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 4096),
                       [&](const tbb::blocked_range<size_t>& range) {
                           for (size_t i = range.begin(); i != range.end(); ++i) {
@@ -41,7 +41,7 @@ PhotonHashGrid::PhotonHashGrid(const Photon* photons, size_t count, float maxRad
     m_order.resize(count);
     m_photons.resize(count);
     m_positions.resize(count);
-    std::vector<uint32_t> next(m_bucketStart.begin(), m_bucketStart.end() - 1);
+    HugePageVector<uint32_t> next(m_bucketStart.begin(), m_bucketStart.end() - 1);
     for (size_t i = 0; i < count; ++i) {
         const uint32_t e = next[bucket[i]]++;
         m_order[e] = static_cast<uint32_t>(i);

@@ -124,10 +124,11 @@ class PhotonHashGrid {
     double m_invCellSize = 1.0;
     float m_maxRadius = 0.0f;
     uint32_t m_bucketMask = 0;
-    std::vector<uint32_t> m_bucketStart;  // bucket b holds entries [start[b], start[b + 1])
-    std::vector<uint32_t> m_order;        // photon index of each entry
-    std::vector<Photon> m_photons;        // the photon of each entry (locality)
-    std::vector<Point3f> m_positions;     // its position, apart: the scan reads only these
+    // Rebuilt every pass, tens of MiB for a million photons: huge pages, as Photons.
+    HugePageVector<uint32_t> m_bucketStart;  // bucket b holds entries [start[b], start[b + 1])
+    HugePageVector<uint32_t> m_order;        // photon index of each entry
+    Photons m_photons;                       // the photon of each entry (locality)
+    HugePageVector<Point3f> m_positions;     // its position, apart: the scan reads only these
 };
 
 }  // namespace alphorn

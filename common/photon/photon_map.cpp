@@ -4,7 +4,7 @@
 
 namespace alphorn {
 
-PhotonMap::PhotonMap(std::vector<Photon> photons, Lookup lookup, float radius)
+PhotonMap::PhotonMap(Photons photons, Lookup lookup, float radius)
     : m_photons(std::move(photons)), m_lookup(lookup) {
     // The k-d tree points into m_photons' buffer, which a move of the map keeps in place (the
     // hash grid keeps its own copy of the photons).

@@ -27,11 +27,11 @@ class PhotonMap {
     PhotonMap() = default;
     // Takes the photons (their order is kept) and indexes them for `lookup`; `radius` is the
     // largest query radius of a Radius map (ignored for Nearest).
-    PhotonMap(std::vector<Photon> photons, Lookup lookup, float radius = 0.0f);
+    PhotonMap(Photons photons, Lookup lookup, float radius = 0.0f);
     PhotonMap(PhotonMap&&) = default;
     PhotonMap& operator=(PhotonMap&&) = default;
 
-    const std::vector<Photon>& photons() const { return m_photons; }
+    const Photons& photons() const { return m_photons; }
     size_t size() const { return m_photons.size(); }
     bool empty() const { return m_photons.empty(); }
     Lookup lookup() const { return m_lookup; }
@@ -52,7 +52,7 @@ class PhotonMap {
     size_t nearest(const Point3f& x, size_t k, float maxRadius, PhotonNeighbor* out) const;
 
   private:
-    std::vector<Photon> m_photons;
+    Photons m_photons;
     Lookup m_lookup = Lookup::Nearest;
     PhotonHashGrid m_grid;  // Radius maps
     PhotonKdTree m_tree;    // Nearest maps

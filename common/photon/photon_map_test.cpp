@@ -12,8 +12,8 @@
 namespace alphorn {
 namespace {
 
-std::vector<Photon> randomPhotons(size_t count, uint64_t seed, float extent = 1.0f) {
-    std::vector<Photon> photons(count);
+Photons randomPhotons(size_t count, uint64_t seed, float extent = 1.0f) {
+    Photons photons(count);
     for (size_t i = 0; i < count; ++i) {
         Rng rng(seed, 0, i, StreamPurpose::Test);
         const float x = rng.nextFloat(), y = rng.nextFloat(), z = rng.nextFloat();
@@ -31,8 +31,7 @@ float distance2(const Point3f& a, const Point3f& b) {
     return d2;
 }
 
-std::vector<uint32_t> bruteForceWithin(const std::vector<Photon>& photons, const Point3f& x,
-                                       float radius) {
+std::vector<uint32_t> bruteForceWithin(const Photons& photons, const Point3f& x, float radius) {
     std::vector<uint32_t> found;
     for (uint32_t i = 0; i < photons.size(); ++i)
         if (distance2(photons[i].position, x) < radius * radius) found.push_back(i);
@@ -40,7 +39,7 @@ std::vector<uint32_t> bruteForceWithin(const std::vector<Photon>& photons, const
 }
 
 TEST(PhotonMap, GridAndKdTreeFindExactlyThePhotonsWithinTheRadius) {
-    const std::vector<Photon> photons = randomPhotons(20000, 1);
+    const Photons photons = randomPhotons(20000, 1);
     PhotonKdTree tree(photons.data(), photons.size());
     for (float radius : {0.003f, 0.02f, 0.1f}) {
         PhotonHashGrid grid(photons.data(), photons.size(), radius);
@@ -76,7 +75,7 @@ TEST(PhotonMap, GridVisitsItsPhotonCopiesInTheOrderOfItsIndices) {
     // Gathers read the grid's own copies of the photons (locality); they must be the photons of
     // the array, visited in exactly the order forEachWithin() gives their indices, or a density
     // estimate's sum would change.
-    std::vector<Photon> photons = randomPhotons(5000, 4);
+    Photons photons = randomPhotons(5000, 4);
     for (size_t i = 0; i < photons.size(); ++i)
         photons[i].direction = Vector3f(float(i), 1.0f, 0.0f).normalized();
     const float radius = 0.1f;
@@ -110,7 +109,7 @@ TEST(PhotonMap, GridVisitsItsPhotonCopiesInTheOrderOfItsIndices) {
 TEST(PhotonMap, GridHandlesPhotonsOnCellFacesAndDuplicates) {
     // Photons on a lattice whose spacing equals the grid's cell size, and exact duplicates:
     // points on cell faces must be found from both sides, and duplicates all counted.
-    std::vector<Photon> photons;
+    Photons photons;
     const float radius = 0.05f, cell = 2.0f * radius * 1.0001f;
     for (int i = -3; i <= 3; ++i)
         for (int j = -3; j <= 3; ++j)
@@ -135,7 +134,7 @@ TEST(PhotonMap, GridScansCrowdedCellsAcrossItsBatchesInIndexOrder) {
     // in photon-index order, whatever the batch boundaries. The photons fill a cube smaller
     // than a cell (side 2.0002 r) from the grid's origin: one cell, one bucket.
     const float radius = 0.1f;
-    std::vector<Photon> photons = randomPhotons(1000, 5, 0.19f);
+    Photons photons = randomPhotons(1000, 5, 0.19f);
     for (Photon& photon : photons) photon.position += Vector3f(0.5f, 0.5f, 0.5f);
     PhotonHashGrid grid(photons.data(), photons.size(), radius);
     size_t total = 0;
@@ -152,7 +151,7 @@ TEST(PhotonMap, GridScansCrowdedCellsAcrossItsBatchesInIndexOrder) {
 }
 
 TEST(PhotonMap, NearestNeighboursMatchBruteForceAndRespectTheSearchRadius) {
-    const std::vector<Photon> photons = randomPhotons(5000, 3);
+    const Photons photons = randomPhotons(5000, 3);
     PhotonMap map(photons, PhotonMap::Lookup::Nearest);
     std::vector<PhotonNeighbor> out(64);
     for (uint64_t q = 0; q < 200; ++q) {
@@ -196,7 +195,7 @@ TEST(PhotonMap, EmptyMapsAnswerNothingAndEstimateZero) {
 
 TEST(PhotonMap, EstimatesUseTheirDocumentedNormalisation) {
     // Photons at known distances from the origin, with powers 1, 2, 3, ...
-    std::vector<Photon> photons;
+    Photons photons;
     for (int i = 0; i < 6; ++i)
         photons.push_back(Photon{Point3f(0.1f * float(i + 1), 0.0f, 0.0f), Vector3f::UnitZ(),
                                  Color3f(float(i + 1))});
@@ -221,7 +220,7 @@ TEST(PhotonMap, EstimatesUseTheirDocumentedNormalisation) {
     const Color3f all = nearestNeighbourEstimate(map, origin, 50, 1.0f, weight);
     EXPECT_NEAR(all.r(), 21.0 / pi, 1e-3);
     // k photons all exactly at the query point: r_k = 0 must not divide by zero.
-    std::vector<Photon> stacked(3, Photon{origin, Vector3f::UnitZ(), Color3f(1.0f)});
+    Photons stacked(3, Photon{origin, Vector3f::UnitZ(), Color3f(1.0f)});
     PhotonMap stackedMap(stacked, PhotonMap::Lookup::Nearest);
     const Color3f s = nearestNeighbourEstimate(stackedMap, origin, 3, 0.5f, weight);
     EXPECT_TRUE(s.allFinite());
@@ -237,7 +236,7 @@ TEST(PhotonMap, NearestNeighbourEstimateIsUnbiasedForUniformPhotons) {
     constexpr size_t k = 4;
     stats::RunningStats ours, common;
     for (int m = 0; m < kMaps; ++m) {
-        std::vector<Photon> photons(kPhotons);
+        Photons photons(kPhotons);
         for (int i = 0; i < kPhotons; ++i) {
             Rng rng(5, m, i, StreamPurpose::Test);
             const float x = rng.nextFloat(), y = rng.nextFloat();

@@ -35,8 +35,7 @@ bool emitPhoton(const Scene& scene, Sampler& sampler, Ray3f& ray, Color3f& flux,
 }
 
 // Follows one photon path, appending the photons it stores to `out`.
-void tracePhoton(const Scene& scene, Sampler& sampler, DirectPhotons direct,
-                 std::vector<Photon>& out) {
+void tracePhoton(const Scene& scene, Sampler& sampler, DirectPhotons direct, Photons& out) {
     Ray3f ray;
     Color3f flux;
     if (!emitPhoton(scene, sampler, ray, flux)) return;
@@ -139,8 +138,8 @@ class StartMediumCache {
 
 // Where each kind of photon goes; nullptr: not stored for this path.
 struct PhotonOutputs {
-    std::vector<Photon>* surface = nullptr;
-    std::vector<Photon>* volume = nullptr;
+    Photons* surface = nullptr;
+    Photons* volume = nullptr;
     std::vector<const Medium*>* volumeMedia = nullptr;  // beside `volume`
 };
 
@@ -227,15 +226,15 @@ void tracePhotonThroughMedia(const Scene& scene, Sampler& sampler,
 
 // Concatenates per-chunk records in chunk order (and frees the chunks): the result is the same
 // for any scheduling of the chunks.
-template <typename T>
-std::vector<T> concatenate(std::vector<std::vector<T>>& chunks) {
+template <typename Records>
+Records concatenate(std::vector<Records>& chunks) {
     const size_t count = chunks.size();
     std::vector<size_t> offsets(count + 1, 0);
     for (size_t c = 0; c < count; ++c) offsets[c + 1] = offsets[c] + chunks[c].size();
-    std::vector<T> result(offsets[count]);
+    Records result(offsets[count]);
     tbb::parallel_for(size_t(0), count, [&](size_t c) {
         std::copy(chunks[c].begin(), chunks[c].end(), result.begin() + offsets[c]);
-        std::vector<T>().swap(chunks[c]);
+        Records().swap(chunks[c]);
     });
     return result;
 }
@@ -248,12 +247,12 @@ TracedPhotons tracePhotons(const Scene& scene, uint64_t seed, uint64_t pass, uin
     result.emitted = count;
     if (count == 0 || scene.emitters().empty()) return result;
     const uint64_t chunks = (count + kChunk - 1) / kChunk;
-    std::vector<std::vector<Photon>> stored(chunks);
+    std::vector<Photons> stored(chunks);
     tbb::parallel_for(uint64_t(0), chunks, [&](uint64_t c) {
         std::unique_ptr<Sampler> sampler = scene.sampler()->clone();
         // Filled here and moved in at the end: neighbouring chunks' vector headers share cache
         // lines, which two threads must not write at every photon.
-        std::vector<Photon> out;
+        Photons out;
         const uint64_t end = std::min(count, (c + 1) * kChunk);
         out.reserve(2 * (end - c * kChunk));  // most paths store one or two photons
         for (uint64_t i = c * kChunk; i < end; ++i) {
@@ -278,12 +277,12 @@ TracedPhotons tracePhotonsThroughMedia(const Scene& scene, uint64_t seed, uint64
     const Eigen::AlignedBox3f mediaBox = mediaBounds(scene);
     const StartMediumCache startMedia(scene);
     const uint64_t chunks = (count + kChunk - 1) / kChunk;
-    std::vector<std::vector<Photon>> surface(chunks), volume(chunks);
+    std::vector<Photons> surface(chunks), volume(chunks);
     std::vector<std::vector<const Medium*>> volumeMedia(chunks);
     tbb::parallel_for(uint64_t(0), chunks, [&](uint64_t c) {
         std::unique_ptr<Sampler> sampler = scene.sampler()->clone();
         // Filled here and moved in at the end (see tracePhotons).
-        std::vector<Photon> chunkSurface, chunkVolume;
+        Photons chunkSurface, chunkVolume;
         std::vector<const Medium*> chunkVolumeMedia;
         const uint64_t end = std::min(count, (c + 1) * kChunk);
         for (uint64_t i = c * kChunk; i < end; ++i) {

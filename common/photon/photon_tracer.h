@@ -15,10 +15,10 @@ class Scene;
 struct TracedPhotons {
     // Photons stored at non-delta surfaces, in photon-index order (and, for one photon path,
     // in path order).
-    std::vector<Photon> surface;
+    Photons surface;
     // Photons stored at scattering events in media (tracePhotonsThroughMedia only), same order,
     // and the medium each scattered in (its phase function serves the beam estimate).
-    std::vector<Photon> volume;
+    Photons volume;
     std::vector<const Medium*> volumeMedia;
     // Photon paths whose surface photons were kept, the count every stored surface power is
     // divided by (64-bit: a progressive render emits far more than 2³² photons over its passes,

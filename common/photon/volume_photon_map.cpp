@@ -7,14 +7,13 @@
 
 namespace alphorn {
 
-VolumePhotonMap::VolumePhotonMap(std::vector<Photon> photons, std::vector<const Medium*> media,
-                                 float radius)
+VolumePhotonMap::VolumePhotonMap(Photons photons, std::vector<const Medium*> media, float radius)
     : m_photons(std::move(photons)), m_media(std::move(media)), m_radii{radius} {
     buildIndex();
 }
 
-VolumePhotonMap::VolumePhotonMap(std::vector<Photon> photons, std::vector<const Medium*> media,
-                                 size_t k, float maxRadius, float radiusScale)
+VolumePhotonMap::VolumePhotonMap(Photons photons, std::vector<const Medium*> media, size_t k,
+                                 float maxRadius, float radiusScale)
     : m_photons(std::move(photons)), m_media(std::move(media)) {
     m_radii.assign(m_photons.size(), maxRadius);
     if (m_photons.size() >= k && k > 0) {

@@ -23,15 +23,15 @@ class VolumePhotonMap {
   public:
     VolumePhotonMap() = default;
     // Fixed radius for every photon. `media[i]` is the medium photon i scattered in (or empty).
-    VolumePhotonMap(std::vector<Photon> photons, std::vector<const Medium*> media, float radius);
+    VolumePhotonMap(Photons photons, std::vector<const Medium*> media, float radius);
     // Per-photon radius from the k nearest volume photons, at most maxRadius, times radiusScale
     // (progressive mode's shrinking factor r_pass / r_0).
-    VolumePhotonMap(std::vector<Photon> photons, std::vector<const Medium*> media, size_t k,
-                    float maxRadius, float radiusScale = 1.0f);
+    VolumePhotonMap(Photons photons, std::vector<const Medium*> media, size_t k, float maxRadius,
+                    float radiusScale = 1.0f);
     VolumePhotonMap(VolumePhotonMap&&) = default;
     VolumePhotonMap& operator=(VolumePhotonMap&&) = default;
 
-    const std::vector<Photon>& photons() const { return m_photons; }
+    const Photons& photons() const { return m_photons; }
     size_t size() const { return m_photons.size(); }
     bool empty() const { return m_photons.empty(); }
     float radius(uint32_t i) const { return m_radii.size() == 1 ? m_radii[0] : m_radii[i]; }
@@ -47,7 +47,7 @@ class VolumePhotonMap {
   private:
     void buildIndex();
 
-    std::vector<Photon> m_photons;
+    Photons m_photons;
     std::vector<const Medium*> m_media;
     std::vector<float> m_radii;  // one element for a fixed radius
     SphereBvh m_index;

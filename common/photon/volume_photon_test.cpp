@@ -144,7 +144,7 @@ TEST_F(VolumePhotonTest, PointLightsStartInTheMediumAroundThem) {
 
 TEST(VolumePhotonMapTest, NearestNeighbourRadiiAreTheKthDistances) {
     Rng rng(3, 0, 0, StreamPurpose::Test);
-    std::vector<Photon> photons(800);
+    Photons photons(800);
     for (Photon& p : photons) {
         p.position = Point3f(rng.nextFloat(), rng.nextFloat(), rng.nextFloat());
         p.direction = Vector3f(0, 0, 1);
@@ -152,7 +152,7 @@ TEST(VolumePhotonMapTest, NearestNeighbourRadiiAreTheKthDistances) {
     }
     const size_t k = 6;
     const float maxRadius = 0.12f;
-    const std::vector<Photon> copy = photons;
+    const Photons copy = photons;
     const VolumePhotonMap map(std::move(photons), {}, k, maxRadius);
     size_t capped = 0;
     for (uint32_t i = 0; i < copy.size(); ++i) {

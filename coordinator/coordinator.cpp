@@ -3,6 +3,7 @@
 // recovery.cpp; the controls of jobs and workers, and retention, in job_control.cpp.
 #include "coordinator/coordinator.h"
 
+#include "common/core/system_memory.h"
 #include "common/farm/convert.h"
 #include "common/farm/film_codec.h"
 #include "common/farm/sha256.h"
@@ -51,10 +52,6 @@ std::string checkedDatabasePath(const std::string& stateDirectory) {
                 jobs);
     }
     return database.string();
-}
-
-uint64_t physicalMemoryBytes() {
-    return uint64_t(::sysconf(_SC_PHYS_PAGES)) * uint64_t(::sysconf(_SC_PAGE_SIZE));
 }
 
 constexpr double kPruneIntervalSeconds = 60;

@@ -1,6 +1,7 @@
 #include "worker/worker.h"
 
 #include "common/core/error.h"
+#include "common/core/system_memory.h"
 #include "common/farm/bundle.h"
 #include "common/farm/chunks.h"
 #include "common/farm/convert.h"
@@ -175,8 +176,7 @@ void Worker::registerWithCoordinator() {
         request.set_name(m_options.name);
         request.set_cores(m_options.threads > 0 ? m_options.threads
                                                 : std::thread::hardware_concurrency());
-        request.set_memory_bytes(uint64_t(::sysconf(_SC_PHYS_PAGES)) *
-                                 uint64_t(::sysconf(_SC_PAGE_SIZE)));
+        request.set_memory_bytes(physicalMemoryBytes());
         request.set_version(ALPHORN_VERSION);
         v1::RegisterResponse response;
         auto ctx = context(m_options.registerTimeout);

@@ -1,6 +1,7 @@
 #include "common/render/local_render.h"
 
 #include "common/core/error.h"
+#include "common/core/system_memory.h"
 #include "common/scene/scene.h"
 
 #include <tbb/parallel_for.h>
@@ -14,6 +15,16 @@ FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
                       const ProgressCallback& progress, RenderCounters* externalCounters,
                       RenderStatus* finalStatus) {
     const Vector2i size = scene.camera()->outputSize();
+    const size_t bytesPerPixel =
+        FilmBlock(0, 0, 0, 0, PassHalves::Kept, filmSmallerRadius(scene)).bytesPerPixel();
+    const uint64_t filmBytes = uint64_t(size.x()) * uint64_t(size.y()) * bytesPerPixel;
+    const uint64_t maxFilmBytes =
+        settings.maxFilmBytes ? settings.maxFilmBytes : physicalMemoryBytes();
+    if (filmBytes > maxFilmBytes)
+        fail("a %dx%d image needs %s for its film (%zu bytes of sums per pixel), more than %s",
+             size.x(), size.y(), formatBytes(filmBytes), bytesPerPixel,
+             settings.maxFilmBytes ? "the limit of " + formatBytes(maxFilmBytes)
+                                   : "this machine's " + formatBytes(maxFilmBytes) + " of memory");
     FilmBlock film(0, 0, size.x(), size.y(), PassHalves::Kept, filmSmallerRadius(scene));
     // The farm's grid (farm::JobGrid cuts a job along the same one).
     const TileGrid grid(scene, settings.tileSize);

@@ -31,6 +31,10 @@ struct RenderSettings {
     // the fixed adaptive grid whose own estimate meets the target gets no more passes; the
     // render ends when all have, or at the cap. Not with a crop.
     bool adaptive = false;
+    // The most memory the film may take; 0: the machine's physical memory. A larger film is
+    // refused with an error before anything is allocated, rather than left to the kernel's
+    // out-of-memory killer (a 16384 x 16384 film with its odd passes' sums is 32 GiB).
+    uint64_t maxFilmBytes = 0;
 };
 
 struct RenderStatus {

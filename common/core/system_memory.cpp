@@ -1,0 +1,17 @@
+#include "common/core/system_memory.h"
+
+#include <absl/strings/str_format.h>
+#include <unistd.h>
+
+namespace alphorn {
+
+uint64_t physicalMemoryBytes() {
+    return uint64_t(::sysconf(_SC_PHYS_PAGES)) * uint64_t(::sysconf(_SC_PAGE_SIZE));
+}
+
+std::string formatBytes(uint64_t bytes) {
+    if (bytes >= (uint64_t(1) << 30)) return absl::StrFormat("%.1f GiB", double(bytes) / (1 << 30));
+    return absl::StrFormat("%.0f MiB", double(bytes) / (1 << 20));
+}
+
+}  // namespace alphorn

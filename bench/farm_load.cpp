@@ -121,6 +121,7 @@ int main(int argc, char** argv) {
         threads.emplace_back([&, w] {
             auto stub = v1::WorkerService::NewStub(channels[w % channels.size()]);
             v1::RegisterRequest registration;
+            registration.set_version(ALPHORN_VERSION);
             registration.set_name(absl::StrFormat("sim-%d", w));
             v1::RegisterResponse registered;
             if (!stub->Register(farm::makeContext(workerToken, std::chrono::seconds(30)).get(),

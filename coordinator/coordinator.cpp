@@ -497,13 +497,21 @@ bool Coordinator::copyFilmInBands(uint64_t jobId, const JobFilm* source, FilmBlo
 // ---- workers -----------------------------------------------------------------------------------
 
 uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
-    // Units and results are only exchangeable between builds of the same major version.
-    const std::string ours = ALPHORN_VERSION;
+    // Units and results are exchangeable only between builds of one version: a change to the
+    // renderer changes a unit's sums, and a job whose units came from two builds would have the
+    // image of neither (the same-bytes promise). A worker that states no version is refused too.
     const std::string theirs = request.version();
-    if (!theirs.empty() && theirs.substr(0, theirs.find('.')) != ours.substr(0, ours.find('.')))
+    if (theirs != ALPHORN_VERSION)
         throw FarmError(
             Kind::FailedPrecondition,
-            absl::StrFormat("worker version %s cannot join a %s coordinator", theirs, ours));
+            theirs.empty()
+                ? std::string("a worker must state its Alphorn version to join (this "
+                              "coordinator is ") +
+                      ALPHORN_VERSION + ")"
+                : absl::StrFormat("worker version %s cannot join a %s coordinator: every worker "
+                                  "of a farm runs the coordinator's version, so that a job's "
+                                  "image does not depend on which workers rendered it",
+                                  theirs, ALPHORN_VERSION));
     WorkerRow row;
     row.name = request.name();
     row.cores = request.cores();

@@ -181,6 +181,7 @@ TEST_F(DashboardTest, ActionsWithTheCookieNeedTheDashboardsHeader) {
 TEST_F(DashboardTest, ServesAJobsStatusHistoryPreviewAndWorkers) {
     const v1::JobStatus job = m_coordinator->submit(upload(*m_coordinator, 4));
     v1::RegisterRequest registration;
+    registration.set_version(ALPHORN_VERSION);
     registration.set_name("dashboard-worker");
     const uint64_t worker = m_coordinator->registerWorker(registration);
     const v1::AcquireWorkResponse held =
@@ -259,6 +260,7 @@ TEST_F(DashboardTest, ActionsCallTheCoordinator) {
     EXPECT_THROW(m_coordinator->listJobs(job.job_id()), FarmError);
 
     v1::RegisterRequest registration;
+    registration.set_version(ALPHORN_VERSION);
     const uint64_t worker = m_coordinator->registerWorker(registration);
     const std::string workerId = std::to_string(worker);
     EXPECT_EQ(post("/api/worker/drain?id=" + workerId, bearer(kClientToken))->status, 200);

@@ -52,6 +52,7 @@ TEST_F(CoordinatorMetricsTest, FollowJobsUnitsWorkersAndBlobs) {
     const v1::JobStatus job = coordinator.submit(request);
     ASSERT_EQ(job.units_total(), 12u);  // 2 passes x (3 x 2 tiles of 16 px)
     v1::RegisterRequest registration;
+    registration.set_version(ALPHORN_VERSION);
     registration.set_name("metrics-worker");
     const uint64_t worker = coordinator.registerWorker(registration);
 

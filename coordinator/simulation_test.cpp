@@ -244,6 +244,7 @@ class Simulation {
         worker = SimWorker();
         const size_t known = m_coordinator->listWorkers(true).size();
         v1::RegisterRequest request;
+        request.set_version(ALPHORN_VERSION);
         request.set_name("sim");
         try {
             worker.id = m_coordinator->registerWorker(request);

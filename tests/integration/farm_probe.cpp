@@ -87,6 +87,7 @@ std::map<std::string, grpc::StatusCode> callEverything(
     }
     {
         v1::RegisterRequest request;
+        request.set_version(ALPHORN_VERSION);
         request.set_name("probe");
         v1::RegisterResponse r;
         codes["Register"] = worker->Register(contextWith(token).get(), request, &r).error_code();
@@ -303,6 +304,7 @@ int lateResult(const std::string& address, const std::string& workerToken,
     auto worker = v1::WorkerService::NewStub(channel);
     auto client = v1::ClientService::NewStub(channel);
     v1::RegisterRequest registration;
+    registration.set_version(ALPHORN_VERSION);
     registration.set_name("late-probe");
     v1::RegisterResponse registered;
     expect(worker->Register(contextWith(workerToken).get(), registration, &registered).ok(),

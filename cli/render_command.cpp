@@ -11,11 +11,14 @@
 #include "common/scene/scene.h"
 
 #include <absl/strings/str_format.h>
+#include <fcntl.h>
 #include <signal.h>
 #include <tbb/global_control.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <optional>
@@ -102,6 +105,44 @@ extern "C" void onInterrupt(int) {
     [[maybe_unused]] ssize_t ignored = ::write(STDERR_FILENO, message, sizeof(message) - 1);
 }
 
+// Fails before rendering when the image could not be written where asked: a render of hours
+// must not end in a permission error.
+void checkOutputWritable(const std::string& output) {
+    if (std::filesystem::is_directory(output))
+        fail("cannot write the image to %s: it is a directory", output);
+    const std::string probe = output + ".probe-" + std::to_string(::getpid());
+    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd < 0)
+        fail("cannot write the image to %s: %s (checked before rendering)", output,
+             std::strerror(errno));
+    ::close(fd);
+    ::unlink(probe.c_str());
+}
+
+// Writes the EXR and the PNG beside it. When that fails (the disk filled up during the render,
+// the folder went away) the render is not lost: the image goes to the temporary folder instead,
+// and the error names where.
+void writeImages(const std::string& output, const Image& image, float exposure) {
+    try {
+        writeEXR(output, image);
+        writePNG(pngPathFor(output), image, exposure);
+    } catch (const Error& error) {
+        const std::string fallback = (std::filesystem::temp_directory_path() /
+                                      ("alphorn-" + std::to_string(::getpid()) + "-" +
+                                       std::filesystem::path(output).filename().string()))
+                                         .string();
+        try {
+            writeEXR(fallback, image);
+            writePNG(pngPathFor(fallback), image, exposure);
+        } catch (const Error& second) {
+            fail("%s; saving the image to %s instead failed too: %s", error.what(), fallback,
+                 second.what());
+        }
+        fail("%s; the image was saved to %s and %s instead", error.what(), fallback,
+             pngPathFor(fallback));
+    }
+}
+
 void stopOnInterrupt() {
     struct sigaction action = {};
     action.sa_handler = onInterrupt;
@@ -142,6 +183,8 @@ static int runRender(const RenderOptions& options) {
                      .string();
     if (auto parent = std::filesystem::path(output).parent_path(); !parent.empty())
         std::filesystem::create_directories(parent);
+    checkOutputWritable(output);
+    checkOutputWritable(pngPathFor(output));
 
     ProgressLine progress("render", settings.passes);
     const std::optional<RadiusSchedule> radiusSchedule = scene->integrator()->radiusSchedule();
@@ -193,8 +236,7 @@ static int runRender(const RenderOptions& options) {
 
     Image image =
         settings.crop ? resolveCrop(film, *settings.crop) : resolveImage(film, size.x(), size.y());
-    writeEXR(output, image);
-    writePNG(pngPathFor(output), image, options.exposure);
+    writeImages(output, image, options.exposure);
     if (stoppedEarly && settings.adaptive)
         std::cerr << absl::StrFormat(
             "%s after %u of %u passes: wrote %s and %s with the passes done (%.1f s)\n",

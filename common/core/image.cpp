@@ -7,31 +7,69 @@
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
+#include <ImfStdIO.h>
 #include <png.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 
 namespace alphorn {
 
-void writeEXR(const std::string& path, const Image& image) {
+namespace {
+
+// Writes the image file through a temporary file beside `path`, renamed over it only once it is
+// complete and flushed: a write that fails (a full disk, a file size limit, a lost mount) leaves
+// neither a truncated image nor a damaged earlier one at `path`. `write` writes the temporary
+// file and throws Error naming `path` on failure.
+template <typename Write>
+void writeThroughTemporary(const std::string& path, const char* format, Write&& write) {
+    const std::string temporary = path + ".partial-" + std::to_string(::getpid());
     try {
-        Imf::Header header(image.width, image.height);
-        header.compression() = Imf::ZIP_COMPRESSION;
-        for (const char* name : {"R", "G", "B"})
-            header.channels().insert(name, Imf::Channel(Imf::FLOAT));
-        Imf::FrameBuffer frame;
-        const size_t xStride = 3 * sizeof(float), yStride = xStride * image.width;
-        char* base = reinterpret_cast<char*>(const_cast<float*>(image.rgb.data()));
-        frame.insert("R", Imf::Slice(Imf::FLOAT, base, xStride, yStride));
-        frame.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xStride, yStride));
-        frame.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xStride, yStride));
-        Imf::OutputFile file(path.c_str(), header);
-        file.setFrameBuffer(frame);
-        file.writePixels(image.height);
-    } catch (const std::exception& e) {
-        fail("%s: cannot write EXR: %s", path, e.what());
+        write(temporary);
+    } catch (...) {
+        std::remove(temporary.c_str());
+        throw;
     }
+    if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+        const int error = errno;
+        std::remove(temporary.c_str());
+        fail("%s: cannot write %s: %s", path, format, std::strerror(error));
+    }
+}
+
+}  // namespace
+
+void writeEXR(const std::string& path, const Image& image) {
+    writeThroughTemporary(path, "EXR", [&](const std::string& temporary) {
+        std::ofstream stream(temporary, std::ios::binary | std::ios::trunc);
+        if (!stream) fail("%s: cannot write EXR: %s", path, std::strerror(errno));
+        try {
+            Imf::Header header(image.width, image.height);
+            header.compression() = Imf::ZIP_COMPRESSION;
+            for (const char* name : {"R", "G", "B"})
+                header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+            Imf::FrameBuffer frame;
+            const size_t xStride = 3 * sizeof(float), yStride = xStride * image.width;
+            char* base = reinterpret_cast<char*>(const_cast<float*>(image.rgb.data()));
+            frame.insert("R", Imf::Slice(Imf::FLOAT, base, xStride, yStride));
+            frame.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xStride, yStride));
+            frame.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xStride, yStride));
+            Imf::StdOFStream imfStream(stream, path.c_str());
+            // OpenEXR writes the line offset table when the file object is destroyed and drops
+            // an error there; the stream's state below catches it.
+            Imf::OutputFile file(imfStream, header);
+            file.setFrameBuffer(frame);
+            file.writePixels(image.height);
+        } catch (const std::exception& e) {
+            fail("%s: cannot write EXR: %s", path, e.what());
+        }
+        stream.close();
+        if (stream.fail()) fail("%s: cannot write EXR: the file could not be written whole", path);
+    });
 }
 
 Image readEXR(const std::string& path) {
@@ -74,35 +112,45 @@ void pngWarning(png_structp, png_const_charp) {}
 }  // namespace
 
 void writePNG(const std::string& path, const Image& image, float exposure) {
-    FilePtr file(std::fopen(path.c_str(), "wb"));
-    if (!file) fail("%s: cannot write PNG: %s", path, std::strerror(errno));
-    const float scale = std::exp2(exposure);
-    std::vector<uint8_t> pixels(3 * size_t(image.width) * image.height);
-    for (size_t i = 0; i < pixels.size(); ++i) {
-        float v = image.rgb[i] * scale;
-        v = std::isfinite(v) ? clamp(v, 0.0f, 1.0f) : 0.0f;
-        Color3f encoded = Color3f(v).toSRGB();
-        pixels[i] = static_cast<uint8_t>(std::lround(encoded.r() * 255.0f));
-    }
-    std::string error;
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &error, pngError, pngWarning);
-    png_infop info = png ? png_create_info_struct(png) : nullptr;
-    if (!png || !info) {
-        png_destroy_write_struct(&png, nullptr);
-        fail("%s: cannot write PNG: out of memory", path);
-    }
-    if (setjmp(png_jmpbuf(png))) {
+    writeThroughTemporary(path, "PNG", [&](const std::string& temporary) {
+        FilePtr file(std::fopen(temporary.c_str(), "wb"));
+        if (!file) fail("%s: cannot write PNG: %s", path, std::strerror(errno));
+        const float scale = std::exp2(exposure);
+        std::vector<uint8_t> pixels(3 * size_t(image.width) * image.height);
+        for (size_t i = 0; i < pixels.size(); ++i) {
+            float v = image.rgb[i] * scale;
+            v = std::isfinite(v) ? clamp(v, 0.0f, 1.0f) : 0.0f;
+            Color3f encoded = Color3f(v).toSRGB();
+            pixels[i] = static_cast<uint8_t>(std::lround(encoded.r() * 255.0f));
+        }
+        std::string error;
+        png_structp png =
+            png_create_write_struct(PNG_LIBPNG_VER_STRING, &error, pngError, pngWarning);
+        png_infop info = png ? png_create_info_struct(png) : nullptr;
+        if (!png || !info) {
+            png_destroy_write_struct(&png, nullptr);
+            fail("%s: cannot write PNG: out of memory", path);
+        }
+        if (setjmp(png_jmpbuf(png))) {
+            png_destroy_write_struct(&png, &info);
+            fail("%s: cannot write PNG: %s", path, error);
+        }
+        png_init_io(png, file.get());
+        png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB,
+                     PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+        png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+        png_write_info(png, info);
+        for (int y = 0; y < image.height; ++y)
+            png_write_row(png, &pixels[3 * size_t(y) * image.width]);
+        png_write_end(png, nullptr);
         png_destroy_write_struct(&png, &info);
-        fail("%s: cannot write PNG: %s", path, error);
-    }
-    png_init_io(png, file.get());
-    png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
-                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-    png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
-    png_write_info(png, info);
-    for (int y = 0; y < image.height; ++y) png_write_row(png, &pixels[3 * size_t(y) * image.width]);
-    png_write_end(png, nullptr);
-    png_destroy_write_struct(&png, &info);
+        // Buffered bytes reach the file only here: a full disk shows up as a failed flush or close.
+        int closeError = 0;
+        if (std::fflush(file.get()) != 0 || std::ferror(file.get()))
+            closeError = errno ? errno : EIO;
+        if (std::fclose(file.release()) != 0 && closeError == 0) closeError = errno ? errno : EIO;
+        if (closeError != 0) fail("%s: cannot write PNG: %s", path, std::strerror(closeError));
+    });
 }
 
 Image readPNG(const std::string& path) {

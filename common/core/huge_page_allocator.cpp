@@ -2,6 +2,8 @@
 
 #include <sys/mman.h>
 
+#include <cstdlib>
+
 namespace alphorn::huge_pages {
 
 void* allocate(size_t bytes) {

@@ -2,10 +2,10 @@
 //
 // A film of a 512 x 512 image with its odd passes' sums is 32 MiB. Allocated the ordinary way,
 // its first touch takes a page fault per 4 KiB page; in a virtual machine a fault costs ~12 us,
-// so zeroing that film took ~110 ms, serially, before a render's first sample (6% of an 8-pass
+// so zeroing that film took ~100 ms, serially, before a render's first sample (6% of an 8-pass
 // Cornell box render on two threads; bench/RESULTS.md). Backed by 2 MiB pages (madvise
 // MADV_HUGEPAGE, which takes effect under the kernel's default "madvise" policy) the same film
-// takes ~3 ms. Buffers below kMinBytes keep the ordinary allocator: rounding them up to whole
+// takes ~4 ms. Buffers below kMinBytes keep the ordinary allocator: rounding them up to whole
 // huge pages would waste memory for no measurable gain.
 #pragma once
 

@@ -24,7 +24,9 @@ namespace {
 // Writes the image file through a temporary file beside `path`, renamed over it only once it is
 // complete and flushed: a write that fails (a full disk, a file size limit, a lost mount) leaves
 // neither a truncated image nor a damaged earlier one at `path`. `write` writes the temporary
-// file and throws Error naming `path` on failure.
+// file and throws Error naming `path` on failure. Unlike farm::publishFileAtomically there is no
+// fsync: the coordinator writes every downloaded image to a scratch file it reads back at once,
+// where syncing to disk would be I/O for nothing.
 template <typename Write>
 void writeThroughTemporary(const std::string& path, const char* format, Write&& write) {
     const std::string temporary = path + ".partial-" + std::to_string(::getpid());

@@ -50,11 +50,11 @@ void withFileSizeLimit(rlim_t bytes, const std::function<void()>& write) {
     ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &saved), 0);
     rlimit limited = saved;
     limited.rlim_cur = bytes;
+    ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &limited), 0);
     // Without this the kernel would end the process with SIGXFSZ instead of failing the write.
     struct sigaction ignore = {}, previous = {};
     ignore.sa_handler = SIG_IGN;
     sigaction(SIGXFSZ, &ignore, &previous);
-    ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &limited), 0);
     write();
     setrlimit(RLIMIT_FSIZE, &saved);
     sigaction(SIGXFSZ, &previous, nullptr);

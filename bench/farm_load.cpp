@@ -16,6 +16,7 @@
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
 #include "common/render/unit.h"
+#include "common/scene/accel.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
 
@@ -122,6 +123,7 @@ int main(int argc, char** argv) {
             auto stub = v1::WorkerService::NewStub(channels[w % channels.size()]);
             v1::RegisterRequest registration;
             registration.set_version(ALPHORN_VERSION);
+            registration.set_platform(renderPlatform());
             registration.set_name(absl::StrFormat("sim-%d", w));
             v1::RegisterResponse registered;
             if (!stub->Register(farm::makeContext(workerToken, std::chrono::seconds(30)).get(),

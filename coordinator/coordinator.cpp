@@ -8,6 +8,7 @@
 #include "common/farm/film_codec.h"
 #include "common/farm/sha256.h"
 #include "common/photon/radius_schedule.h"
+#include "common/scene/accel.h"
 #include "coordinator/admission.h"
 #include "coordinator/log.h"
 
@@ -512,6 +513,21 @@ uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
                                   "of a farm runs the coordinator's version, so that a job's "
                                   "image does not depend on which workers rendered it",
                                   theirs, ALPHORN_VERSION));
+    // The same holds for one build on two kinds of CPU: Embree's kernels for another instruction
+    // set (or another architecture) round hits differently.
+    const std::string platform = renderPlatform();
+    if (request.platform() != platform)
+        throw FarmError(
+            Kind::FailedPrecondition,
+            request.platform().empty()
+                ? absl::StrFormat("a worker must state its platform to join (this coordinator "
+                                  "runs on %s)",
+                                  platform)
+                : absl::StrFormat("a worker on %s cannot join a coordinator on %s: its ray "
+                                  "tracing kernels round hits differently, so a job's image "
+                                  "would depend on which workers rendered it; run workers on "
+                                  "CPUs of the coordinator's platform",
+                                  request.platform(), platform));
     WorkerRow row;
     row.name = request.name();
     row.cores = request.cores();
@@ -524,7 +540,7 @@ uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
     m_workers->add(id, request);
     logInfo("worker.registered",
             {field("worker", id), field("name", request.name()), field("cores", request.cores()),
-             field("version", request.version())});
+             field("version", request.version()), field("platform", request.platform())});
     return id;
 }
 

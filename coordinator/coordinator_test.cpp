@@ -8,6 +8,7 @@
 #include "common/farm/film_codec.h"
 #include "common/farm/sha256.h"
 #include "common/render/local_render.h"
+#include "common/scene/accel.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
 #include "coordinator/checkpoint.h"
@@ -32,9 +33,10 @@ namespace {
 namespace fs = std::filesystem;
 
 // A worker's registration as a worker of this build sends it.
-v1::RegisterRequest thisVersion() {
+v1::RegisterRequest thisBuild() {
     v1::RegisterRequest request;
     request.set_version(ALPHORN_VERSION);
+    request.set_platform(renderPlatform());
     return request;
 }
 
@@ -171,7 +173,7 @@ TEST_F(CoordinatorJob, ReverseOrderDuplicatesAndRestartGiveTheLocalFilm) {
         const uint32_t total = submitted.units_total();
         EXPECT_EQ(total, 3u * 6u);  // 3 passes x (3 x 2 tiles of 16 px)
         EXPECT_FALSE(submitted.has_photon_radius()) << "a normals job has no photon radius";
-        v1::RegisterRequest registration = thisVersion();
+        v1::RegisterRequest registration = thisBuild();
         registration.set_name("test");
         const uint64_t worker = coordinator.registerWorker(registration);
         std::vector<v1::AcquireWorkResponse> leases;
@@ -204,7 +206,7 @@ TEST_F(CoordinatorJob, ReverseOrderDuplicatesAndRestartGiveTheLocalFilm) {
     v1::JobStatus status = coordinator.listJobs(jobId).at(0);
     EXPECT_EQ(status.state(), v1::JOB_STATE_RUNNING);
     EXPECT_EQ(status.units_restored(), mergedBeforeRestart);
-    v1::RegisterRequest registration = thisVersion();
+    v1::RegisterRequest registration = thisBuild();
     const uint64_t worker = coordinator.registerWorker(registration);
     renderAllUnits(coordinator, worker, [&](const v1::AcquireWorkResponse& lease) {
         EXPECT_LT(lease.unit().unit_index(), status.units_total() / 2)
@@ -243,7 +245,7 @@ TEST_F(CoordinatorJob, ReportsThePhotonRadiusOfTheLastCompletePass) {
         jobId = status.job_id();
         ASSERT_TRUE(status.has_photon_radius());
         EXPECT_EQ(status.photon_radius(), expected[0]);
-        const uint64_t worker = coordinator.registerWorker(thisVersion());
+        const uint64_t worker = coordinator.registerWorker(thisBuild());
         std::set<uint32_t> passesSeen;
         renderAllUnits(coordinator, worker, [&](const v1::AcquireWorkResponse&) {
             status = coordinator.listJobs(jobId).at(0);
@@ -278,7 +280,7 @@ TEST_F(CoordinatorJob, EndedJobsAndUnusedBlobsAreRemovedAfterTheKeepTime) {
         Coordinator coordinator(m_options);
         const v1::SubmitJobRequest first = upload(coordinator);
         ended = coordinator.submit(first).job_id();
-        renderAllUnits(coordinator, coordinator.registerWorker(thisVersion()));
+        renderAllUnits(coordinator, coordinator.registerWorker(thisBuild()));
         ASSERT_EQ(coordinator.listJobs(ended).at(0).state(), v1::JOB_STATE_DONE);
         // A second scene file shares sphere.obj with the first job.
         std::ofstream(m_dir / "scene/s.xml", std::ios::app) << "<!-- another scene -->\n";
@@ -371,7 +373,7 @@ TEST_F(CoordinatorJob, ALostDatabaseIsRefusedAndNoFilmIsDeleted) {
     {
         Coordinator coordinator(m_options);
         coordinator.submit(upload(coordinator));
-        renderAllUnits(coordinator, coordinator.registerWorker(thisVersion()));
+        renderAllUnits(coordinator, coordinator.registerWorker(thisBuild()));
         coordinator.stop();
     }
     const fs::path state = m_options.stateDirectory;
@@ -410,7 +412,7 @@ TEST_F(CoordinatorJob, EveryPersistedFieldRoundTrips) {
         request.mutable_settings()->set_seed(11);
         request.mutable_settings()->set_integrator_override("normals");
         running = coordinator.submit(request).job_id();
-        const uint64_t worker = coordinator.registerWorker(thisVersion());
+        const uint64_t worker = coordinator.registerWorker(thisBuild());
         // Job "done" (priority 3) renders completely, then "running" (2) partly.
         for (int i = 0; i < 18 + 5; ++i) {
             const v1::AcquireWorkResponse lease =
@@ -465,7 +467,7 @@ TEST_F(CoordinatorJob, EveryPersistedFieldRoundTrips) {
     }
     // The description a worker gets for the resumed job is the one it got before, id included:
     // a worker caching scenes by job must load this job's scene.
-    const uint64_t worker = restarted.registerWorker(thisVersion());
+    const uint64_t worker = restarted.registerWorker(thisBuild());
     const v1::AcquireWorkResponse lease =
         restarted.acquire(worker, std::chrono::steady_clock::now());
     ASSERT_TRUE(lease.has_work());
@@ -484,7 +486,7 @@ TEST_F(CoordinatorJob, CountsThatWouldOverflowAreClampedOrRefused) {
     const v1::JobStatus status = coordinator.submit(request);
     EXPECT_EQ(status.units_total(), 6u);
     EXPECT_EQ(status.settings().passes_per_unit(), 3u);
-    renderAllUnits(coordinator, coordinator.registerWorker(thisVersion()));
+    renderAllUnits(coordinator, coordinator.registerWorker(thisBuild()));
     EXPECT_EQ(coordinator.listJobs(status.job_id()).at(0).state(), v1::JOB_STATE_DONE);
     EXPECT_EQ(coordinator.snapshot(status.job_id(), false).film.serialize(), localFilm());
     // 1200 one-pixel tiles x 2^20 passes: about 2^30 units, which a 32-bit index still names;
@@ -533,7 +535,7 @@ TEST_F(CoordinatorJob, AJobKeepsTheFilmLayoutItWasAdmittedWith) {
         Coordinator coordinator(m_options);
         jobId = coordinator.submit(upload(coordinator, 2)).job_id();
         const v1::AcquireWorkResponse lease = coordinator.acquire(
-            coordinator.registerWorker(thisVersion()), std::chrono::steady_clock::now());
+            coordinator.registerWorker(thisBuild()), std::chrono::steady_clock::now());
         ASSERT_TRUE(lease.has_work());
         EXPECT_TRUE(lease.unit().smaller_radius()) << "a progressive photon job keeps it";
         coordinator.stop();
@@ -545,7 +547,7 @@ TEST_F(CoordinatorJob, AJobKeepsTheFilmLayoutItWasAdmittedWith) {
               SQLITE_OK);
     sqlite3_close(db);
     Coordinator coordinator(m_options);
-    const uint64_t worker = coordinator.registerWorker(thisVersion());
+    const uint64_t worker = coordinator.registerWorker(thisBuild());
     renderAllUnits(coordinator, worker, [](const v1::AcquireWorkResponse& lease) {
         EXPECT_FALSE(lease.unit().smaller_radius());
     });
@@ -559,7 +561,7 @@ TEST_F(CoordinatorJob, APreviewKeepsTheSmallerRadiusImage) {
     writeProgressivePhotonScene();
     Coordinator coordinator(m_options);
     const v1::JobStatus status = coordinator.submit(upload(coordinator, 2));
-    const uint64_t worker = coordinator.registerWorker(thisVersion());
+    const uint64_t worker = coordinator.registerWorker(thisBuild());
     FilmBlock expected(0, 0, 40, 30, PassHalves::Kept, SmallerRadius::Kept);
     for (uint32_t unit = 0; unit + 1 < status.units_total(); ++unit) {
         const v1::AcquireWorkResponse lease =
@@ -585,7 +587,7 @@ TEST_F(CoordinatorJob, APreviewOfAFilmOfSeveralBandsIsTheWholeFilm) {
     writeScene(R"(<integrator type="normals"/>)", 192, 128);
     Coordinator coordinator(m_options);
     const v1::JobStatus status = coordinator.submit(upload(coordinator, 2));
-    const uint64_t worker = coordinator.registerWorker(thisVersion());
+    const uint64_t worker = coordinator.registerWorker(thisBuild());
     FilmBlock expected(0, 0, 192, 128);
     for (uint32_t unit = 0; unit + 1 < status.units_total(); ++unit) {
         const v1::AcquireWorkResponse lease =
@@ -619,7 +621,7 @@ TEST_F(CoordinatorJob, AFailingFinalCheckpointIsRetriedAndNeverHangs) {
             jobId = coordinator.submit(upload(coordinator)).job_id();
             directory = coordinator.jobDirectory(jobId);
             aside = directory.string() + ".aside";
-            const uint64_t worker = coordinator.registerWorker(thisVersion());
+            const uint64_t worker = coordinator.registerWorker(thisBuild());
             fs::rename(directory, aside);
             std::ofstream(directory) << "not a directory";
             renderAllUnits(coordinator, worker);
@@ -653,7 +655,7 @@ TEST_F(CoordinatorJob, OnlyLeasesGrantedEarlierAreReadopted) {
     {
         Coordinator coordinator(m_options);
         jobId = coordinator.submit(upload(coordinator)).job_id();
-        worker = coordinator.registerWorker(thisVersion());
+        worker = coordinator.registerWorker(thisBuild());
         held = coordinator.acquire(worker, std::chrono::steady_clock::now());
         ASSERT_TRUE(held.has_work());
         coordinator.stop();
@@ -684,7 +686,7 @@ TEST_F(CoordinatorJob, OnlyLeasesGrantedEarlierAreReadopted) {
     EXPECT_EQ(coordinator.listJobs(jobId).at(0).units_leased(), 1u);
 
     // A lease of this process that expires is fenced, also when its holder comes back.
-    const uint64_t other = coordinator.registerWorker(thisVersion());
+    const uint64_t other = coordinator.registerWorker(thisBuild());
     const v1::AcquireWorkResponse lease =
         coordinator.acquire(other, std::chrono::steady_clock::now());
     ASSERT_TRUE(lease.has_work());
@@ -720,8 +722,30 @@ TEST_F(CoordinatorJob, WorkersOfAnotherVersionOrNoneAreRefused) {
         }
     }
     EXPECT_TRUE(coordinator.listWorkers(true).empty());
-    EXPECT_GT(coordinator.registerWorker(thisVersion()), 0u);
+    EXPECT_GT(coordinator.registerWorker(thisBuild()), 0u);
     EXPECT_EQ(coordinator.listWorkers(true).size(), 1u);
+}
+
+// Nor can a worker of this build on another kind of CPU, or one that states no platform: Embree's
+// kernels for another instruction set round hits differently.
+TEST_F(CoordinatorJob, WorkersOfAnotherPlatformOrNoneAreRefused) {
+    Coordinator coordinator(m_options);
+    const std::string ours = renderPlatform();
+    for (const std::string& platform :
+         {std::string(), std::string("aarch64"), std::string("x86-64 sse2"), ours + " avx512"}) {
+        if (platform == ours) continue;
+        v1::RegisterRequest registration = thisBuild();
+        registration.set_platform(platform);
+        try {
+            coordinator.registerWorker(registration);
+            ADD_FAILURE() << "a worker on platform '" << platform << "' joined";
+        } catch (const FarmError& e) {
+            EXPECT_EQ(e.kind, FarmError::Kind::FailedPrecondition) << e.what();
+            EXPECT_NE(std::string(e.what()).find(ours), std::string::npos) << e.what();
+        }
+    }
+    EXPECT_TRUE(coordinator.listWorkers(true).empty());
+    EXPECT_GT(coordinator.registerWorker(thisBuild()), 0u);
 }
 
 TEST_F(CoordinatorJob, WorkersNotSeenForTheKeepTimeAreForgotten) {
@@ -730,7 +754,7 @@ TEST_F(CoordinatorJob, WorkersNotSeenForTheKeepTimeAreForgotten) {
         std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
     {
         Coordinator coordinator(m_options);
-        coordinator.registerWorker(thisVersion());
+        coordinator.registerWorker(thisBuild());
         coordinator.pruneFinishedJobs(now + 900);
         EXPECT_EQ(coordinator.listWorkers(true).size(), 1u);
         coordinator.pruneFinishedJobs(now + 1100);
@@ -765,7 +789,7 @@ TEST_F(CoordinatorJob, ADamagedJobRecordFailsOnlyThatJob) {
                                   m_options.stateDirectory + "/state.sqlite"),
               std::string::npos)
         << status.error();
-    renderAllUnits(coordinator, coordinator.registerWorker(thisVersion()));
+    renderAllUnits(coordinator, coordinator.registerWorker(thisBuild()));
     EXPECT_EQ(coordinator.listJobs(healthy).at(0).state(), v1::JOB_STATE_DONE);
     EXPECT_EQ(coordinator.snapshot(healthy, false).film.serialize(), localFilm());
     const std::string message = refusal([&] { coordinator.retry(damaged); });
@@ -778,7 +802,7 @@ TEST_F(CoordinatorJob, AFinishedJobWhoseCheckpointIsLostIsRenderedAgain) {
     {
         Coordinator coordinator(m_options);
         jobId = coordinator.submit(upload(coordinator)).job_id();
-        renderAllUnits(coordinator, coordinator.registerWorker(thisVersion()));
+        renderAllUnits(coordinator, coordinator.registerWorker(thisBuild()));
         coordinator.stop();
         fs::remove(coordinator.jobDirectory(jobId) + "/film.ckpt");
     }
@@ -786,7 +810,7 @@ TEST_F(CoordinatorJob, AFinishedJobWhoseCheckpointIsLostIsRenderedAgain) {
     const v1::JobStatus status = coordinator.listJobs(jobId).at(0);
     EXPECT_EQ(status.state(), v1::JOB_STATE_RUNNING) << "done without its film";
     EXPECT_EQ(status.units_done(), 0u);
-    renderAllUnits(coordinator, coordinator.registerWorker(thisVersion()));
+    renderAllUnits(coordinator, coordinator.registerWorker(thisBuild()));
     EXPECT_EQ(coordinator.snapshot(jobId, false).film.serialize(), localFilm());
     coordinator.stop();
 }
@@ -803,7 +827,7 @@ TEST_F(CoordinatorJob, AJobRecordedWithoutItsDirectoryRunsToTheEnd) {
         fs::remove_all(coordinator.jobDirectory(jobId));
     }
     Coordinator coordinator(m_options);
-    renderAllUnits(coordinator, coordinator.registerWorker(thisVersion()));
+    renderAllUnits(coordinator, coordinator.registerWorker(thisBuild()));
     const v1::JobStatus status = coordinator.listJobs(jobId).at(0);
     EXPECT_EQ(status.state(), v1::JOB_STATE_DONE) << status.error();
     EXPECT_EQ(coordinator.snapshot(jobId, false).film.serialize(), localFilm());
@@ -819,7 +843,7 @@ TEST_F(CoordinatorJob, APausedJobLeasesNothingNewButMergesWhatIsOut) {
     {
         Coordinator coordinator(m_options);
         jobId = coordinator.submit(upload(coordinator)).job_id();
-        const uint64_t worker = coordinator.registerWorker(thisVersion());
+        const uint64_t worker = coordinator.registerWorker(thisBuild());
         const v1::AcquireWorkResponse out =
             coordinator.acquire(worker, std::chrono::steady_clock::now());
         ASSERT_TRUE(out.has_work());
@@ -833,7 +857,7 @@ TEST_F(CoordinatorJob, APausedJobLeasesNothingNewButMergesWhatIsOut) {
         coordinator.stop();
     }
     Coordinator coordinator(m_options);
-    const uint64_t worker = coordinator.registerWorker(thisVersion());
+    const uint64_t worker = coordinator.registerWorker(thisBuild());
     EXPECT_TRUE(coordinator.listJobs(jobId).at(0).paused()) << "the pause was not stored";
     EXPECT_FALSE(coordinator.acquire(worker, std::chrono::steady_clock::now()).has_work());
     const v1::JobStatus resumed = coordinator.setPaused(jobId, false);
@@ -856,7 +880,7 @@ TEST_F(CoordinatorJob, APriorityChangeReordersTheQueue) {
         Coordinator coordinator(m_options);
         first = coordinator.submit(upload(coordinator)).job_id();
         second = coordinator.submit(upload(coordinator)).job_id();
-        const uint64_t worker = coordinator.registerWorker(thisVersion());
+        const uint64_t worker = coordinator.registerWorker(thisBuild());
         EXPECT_EQ(coordinator.acquire(worker, std::chrono::steady_clock::now()).unit().job_id(),
                   first);
         EXPECT_EQ(coordinator.setPriority(second, 7).settings().priority(), 7);
@@ -867,7 +891,7 @@ TEST_F(CoordinatorJob, APriorityChangeReordersTheQueue) {
     }
     Coordinator coordinator(m_options);
     EXPECT_EQ(coordinator.listJobs(second).at(0).settings().priority(), 7) << "not stored";
-    const uint64_t worker = coordinator.registerWorker(thisVersion());
+    const uint64_t worker = coordinator.registerWorker(thisBuild());
     EXPECT_EQ(coordinator.acquire(worker, std::chrono::steady_clock::now()).unit().job_id(),
               second);
     coordinator.cancel(first);
@@ -882,7 +906,7 @@ TEST_F(CoordinatorJob, ARetriedCancelledJobGivesTheBytesOfAFreshJob) {
     m_options.checkpointIntervalSeconds = 0;  // every tick() checkpoints
     Coordinator coordinator(m_options);
     const uint64_t jobId = coordinator.submit(upload(coordinator)).job_id();
-    const uint64_t worker = coordinator.registerWorker(thisVersion());
+    const uint64_t worker = coordinator.registerWorker(thisBuild());
     const auto mergeOne = [&] {
         const auto lease = coordinator.acquire(worker, std::chrono::steady_clock::now());
         std::string compressed;
@@ -916,7 +940,7 @@ TEST_F(CoordinatorJob, ARetriedFailedJobForgetsItsAttempts) {
     {
         Coordinator coordinator(m_options);
         jobId = coordinator.submit(upload(coordinator)).job_id();
-        const uint64_t worker = coordinator.registerWorker(thisVersion());
+        const uint64_t worker = coordinator.registerWorker(thisBuild());
         for (uint32_t attempt = 0; attempt < 2; ++attempt) {
             const auto lease = coordinator.acquire(worker, std::chrono::steady_clock::now());
             v1::ResultChunk failure;
@@ -950,7 +974,7 @@ TEST_F(CoordinatorJob, ARetriedFailedJobForgetsItsAttempts) {
     Coordinator restarted(m_options);  // the retry is stored
     EXPECT_EQ(restarted.listJobs(jobId).at(0).state(), v1::JOB_STATE_RUNNING);
     EXPECT_EQ(restarted.listJobs(jobId).at(0).attempts_failed(), 0u);
-    renderAllUnits(restarted, restarted.registerWorker(thisVersion()));
+    renderAllUnits(restarted, restarted.registerWorker(thisBuild()));
     EXPECT_EQ(restarted.listJobs(jobId).at(0).state(), v1::JOB_STATE_DONE);
     EXPECT_EQ(restarted.snapshot(jobId, false).film.serialize(), localFilm());
     restarted.stop();
@@ -1012,7 +1036,7 @@ TEST_F(CoordinatorJob, TheEventLogRecordsTheJobsLifeAndSurvivesARestart) {
         coordinator.setPaused(jobId, true);
         coordinator.setPaused(jobId, false);
         coordinator.setPriority(jobId, 4);
-        const uint64_t worker = coordinator.registerWorker(thisVersion());
+        const uint64_t worker = coordinator.registerWorker(thisBuild());
         renderAllUnits(coordinator, worker);
         const v1::GetJobLogResponse log = coordinator.jobLog(jobId, 0);
         before = eventKinds(log);
@@ -1048,7 +1072,7 @@ TEST_F(CoordinatorJob, ADrainedWorkerGetsNoNewUnits) {
     {
         Coordinator coordinator(m_options);
         coordinator.submit(upload(coordinator));
-        worker = coordinator.registerWorker(thisVersion());
+        worker = coordinator.registerWorker(thisBuild());
         const auto out = coordinator.acquire(worker, std::chrono::steady_clock::now());
         ASSERT_TRUE(out.has_work());
         const v1::WorkerInfo info = coordinator.setWorkerDraining(worker, true);
@@ -1084,7 +1108,7 @@ TEST_F(CoordinatorJob, WorkerStatesFollowTheirCalls) {
     auto clock = std::make_shared<ManualClock>();
     Coordinator coordinator(m_options, clock);
     coordinator.submit(upload(coordinator));
-    const uint64_t worker = coordinator.registerWorker(thisVersion());
+    const uint64_t worker = coordinator.registerWorker(thisBuild());
     const auto state = [&] { return coordinator.listWorkers(true).at(0).state(); };
     EXPECT_EQ(state(), v1::WORKER_STATE_ALIVE);
     clock->advance(coordinator.silentAfterSeconds() - 0.5);
@@ -1125,7 +1149,7 @@ TEST_F(CoordinatorJob, SlowCheckpointsStretchTheInterval) {
     m_options.checkpointIntervalSeconds = 10;
     Coordinator coordinator(m_options, clock);
     const uint64_t jobId = coordinator.submit(upload(coordinator)).job_id();
-    const uint64_t worker = coordinator.registerWorker(thisVersion());
+    const uint64_t worker = coordinator.registerWorker(thisBuild());
     double writeSeconds = 0.1;  // how long each durable write takes on the manual clock
     coordinator.setDurableWriteHooks({[&] { clock->advance(writeSeconds); }, {}});
     const auto mergeOne = [&] {
@@ -1165,7 +1189,7 @@ TEST_F(CoordinatorJob, AJobsChangeSignalWakesWatchersOnMergeAndCancel) {
     const auto inAWhile = [] { return std::chrono::steady_clock::now() + 10s; };
     Coordinator coordinator(m_options, std::make_shared<ManualClock>());
     const uint64_t jobId = coordinator.submit(upload(coordinator)).job_id();
-    const uint64_t worker = coordinator.registerWorker(thisVersion());
+    const uint64_t worker = coordinator.registerWorker(thisBuild());
     const std::shared_ptr<const ChangeSignal> changes = coordinator.changeSignal(jobId);
 
     ChangeSignal::Seen seen = changes->current();

@@ -3,6 +3,7 @@
 #include "coordinator/metrics.h"
 
 #include "common/farm/metrics.h"
+#include "common/scene/accel.h"
 #include "coordinator/coordinator_job_test.h"
 
 #include <gtest/gtest.h>
@@ -53,6 +54,7 @@ TEST_F(CoordinatorMetricsTest, FollowJobsUnitsWorkersAndBlobs) {
     ASSERT_EQ(job.units_total(), 12u);  // 2 passes x (3 x 2 tiles of 16 px)
     v1::RegisterRequest registration;
     registration.set_version(ALPHORN_VERSION);
+    registration.set_platform(renderPlatform());
     registration.set_name("metrics-worker");
     const uint64_t worker = coordinator.registerWorker(registration);
 

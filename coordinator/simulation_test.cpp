@@ -20,6 +20,7 @@
 #include "common/farm/film_codec.h"
 #include "common/farm/sha256.h"
 #include "common/render/local_render.h"
+#include "common/scene/accel.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
 #include "coordinator/coordinator.h"
@@ -245,6 +246,7 @@ class Simulation {
         const size_t known = m_coordinator->listWorkers(true).size();
         v1::RegisterRequest request;
         request.set_version(ALPHORN_VERSION);
+        request.set_platform(renderPlatform());
         request.set_name("sim");
         try {
             worker.id = m_coordinator->registerWorker(request);

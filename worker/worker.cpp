@@ -13,6 +13,7 @@
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
 #include "common/integrator/photon_pass.h"
+#include "common/scene/accel.h"
 #include "common/scene/scene.h"
 
 #include <absl/strings/str_replace.h>
@@ -178,6 +179,7 @@ void Worker::registerWithCoordinator() {
                                                 : std::thread::hardware_concurrency());
         request.set_memory_bytes(physicalMemoryBytes());
         request.set_version(ALPHORN_VERSION);
+        request.set_platform(renderPlatform());
         v1::RegisterResponse response;
         auto ctx = context(m_options.registerTimeout);
         grpc::Status status = m_stub->Register(ctx.get(), request, &response);

@@ -19,9 +19,26 @@ uint64_t shadowRaysTracedByThisThread() {
 }
 
 RTCDevice newEmbreeDevice() {
-    RTCDevice device = rtcNewDevice(nullptr);
+    RTCDevice device = rtcNewDevice(kEmbreeDeviceConfig);
     if (!device) fail("Embree could not create a device (error %d)", rtcGetDeviceError(nullptr));
     return device;
+}
+
+std::string renderPlatform() {
+#if defined(__x86_64__)
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
+        __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2"))
+        return "x86-64 avx2";
+    if (__builtin_cpu_supports("avx")) return "x86-64 avx";
+    if (__builtin_cpu_supports("sse4.2") && __builtin_cpu_supports("popcnt"))
+        return "x86-64 sse4.2";
+    return "x86-64 sse2";
+#elif defined(__aarch64__)
+    return "aarch64";
+#else
+    return "unknown";
+#endif
 }
 
 void commitEmbreeScene(RTCScene scene) {

@@ -38,7 +38,21 @@ uint64_t raysTracedByThisThread();
 // tbb::global_control or task arena. Embree's "threads=N" setting is not local to its device:
 // Embree (built on oneTBB) applies it to the whole process as a tbb::global_control while the
 // device lives, so a "threads=1" device makes every render in the process single-threaded.
+//
+// Its kernels are capped at AVX2 (kEmbreeDeviceConfig). Embree picks its kernels by the CPU it runs
+// on, and kernels of two instruction sets round a hit's distance and barycentrics differently
+// and build BVHs of another width; capped, a CPU with AVX-512 traces the same bits as one with
+// AVX2 alone, so a farm mixing the two renders the image `alphorn render` gives on either.
 RTCDevice newEmbreeDevice();
+inline constexpr const char* kEmbreeDeviceConfig = "max_isa=avx2";
+
+// The class of CPU a render's bytes depend on: its architecture and the instruction set of the
+// Embree kernels it gets under kEmbreeDeviceConfig ("x86-64 avx2", "x86-64 avx", "x86-64 sse4.2",
+// "x86-64 sse2"; other architectures by name). One build renders the same bytes on every CPU of
+// one platform; the coordinator refuses workers of another platform than its own. Embree's
+// choice is mirrored from the CPU's feature flags (its AVX2 kernels need AVX2, FMA, BMI1 and
+// BMI2); the glibc maths functions' FMA variants follow the same flags.
+std::string renderPlatform();
 
 // rtcCommitScene run by the calling thread alone, inside a task arena of one thread. Embree builds
 // in the caller's arena, and its parallel partitioning cuts the primitives into as many ranges as

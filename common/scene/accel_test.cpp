@@ -17,8 +17,11 @@
 #include <tbb/partitioner.h>
 #include <tbb/task_arena.h>
 
+#include <array>
 #include <atomic>
 #include <chrono>
+#include <cstring>
+#include <random>
 #include <thread>
 
 namespace alphorn {
@@ -88,6 +91,91 @@ TEST(AccelRayCounts, ShadowRaysAreCountedApartFromClosestHits) {
     accel.occluded(ray);
     EXPECT_EQ(raysTracedByThisThread() - raysBefore, 3u);
     EXPECT_EQ(shadowRaysTracedByThisThread() - shadowBefore, 1u);
+}
+
+// Every hit of a fixed set of rays through the Cornell box's meshes (two spheres of 18k triangles
+// and the walls), as Embree reports it on a BVH built on `device`: the bits of the distance and
+// barycentrics, the triangle and the mesh.
+std::vector<std::array<uint32_t, 5>> traceCornellBox(RTCDevice device) {
+    EXPECT_NE(device, nullptr) << "Embree could not create the device";
+    if (!device) return {};
+    const LoadedScene loaded;
+    RTCScene scene = rtcNewScene(device);
+    rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
+    for (const auto& mesh : loaded.scene->meshes()) {
+        RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+        float* vertices = static_cast<float*>(
+            rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                    3 * sizeof(float), mesh->vertexCount()));
+        std::copy_n(mesh->positions().data(), 3 * mesh->vertexCount(), vertices);
+        uint32_t* indices = static_cast<uint32_t*>(
+            rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                    3 * sizeof(uint32_t), mesh->triangleCount()));
+        std::copy_n(mesh->faces().data(), 3 * mesh->triangleCount(), indices);
+        rtcCommitGeometry(geometry);
+        rtcAttachGeometry(scene, geometry);
+        rtcReleaseGeometry(geometry);
+    }
+    commitEmbreeScene(scene);
+    std::mt19937 random(17);
+    std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+    std::vector<std::array<uint32_t, 5>> hits;
+    for (int i = 0; i < 20000; ++i) {
+        RTCIntersectContext context;
+        rtcInitIntersectContext(&context);
+        RTCRayHit rayHit{};
+        rayHit.ray.org_x = 0.9f * uniform(random);
+        rayHit.ray.org_y = 1.0f + 0.9f * uniform(random);
+        rayHit.ray.org_z = 0.9f * uniform(random);
+        rayHit.ray.dir_x = uniform(random);
+        rayHit.ray.dir_y = uniform(random);
+        rayHit.ray.dir_z = uniform(random);
+        rayHit.ray.tfar = Infinity;
+        rayHit.ray.mask = 0xffffffffu;
+        rayHit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rtcIntersect1(scene, &context, &rayHit);
+        std::array<uint32_t, 5> hit{};
+        std::memcpy(&hit[0], &rayHit.ray.tfar, 4);
+        std::memcpy(&hit[1], &rayHit.hit.u, 4);
+        std::memcpy(&hit[2], &rayHit.hit.v, 4);
+        hit[3] = rayHit.hit.primID;
+        hit[4] = rayHit.hit.geomID;
+        hits.push_back(hit);
+    }
+    rtcReleaseScene(scene);
+    rtcReleaseDevice(device);
+    return hits;
+}
+
+size_t differingHits(const std::vector<std::array<uint32_t, 5>>& a,
+                     const std::vector<std::array<uint32_t, 5>>& b) {
+    EXPECT_EQ(a.size(), b.size());
+    size_t differing = 0;
+    for (size_t i = 0; i < std::min(a.size(), b.size()); ++i) differing += a[i] != b[i];
+    return differing;
+}
+
+// The renderer's device traces what a CPU with AVX2 and nothing newer traces (Embree's
+// "isa=avx2" forces those kernels), bit for bit, whatever this CPU has beyond AVX2.
+TEST(EmbreeKernels, EveryCpuOfThePlatformTracesTheSameBits) {
+    if (renderPlatform() != "x86-64 avx2") GTEST_SKIP() << "this CPU has no AVX2 kernels";
+    const auto ours = traceCornellBox(newEmbreeDevice());
+    const auto avx2Only = traceCornellBox(rtcNewDevice("isa=avx2"));
+    ASSERT_EQ(ours.size(), 20000u);
+    EXPECT_EQ(differingHits(ours, avx2Only), 0u);
+}
+
+// Why the cap is needed: on a CPU with AVX-512, Embree's own choice (its AVX-512 kernels)
+// reports other bits for some of the same rays.
+TEST(EmbreeKernels, AvxFiveTwelveKernelsWouldTraceOtherBits) {
+    __builtin_cpu_init();
+    if (!(__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+          __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512bw") &&
+          __builtin_cpu_supports("avx512vl")))
+        GTEST_SKIP() << "this CPU has no AVX-512 kernels";
+    const auto ours = traceCornellBox(newEmbreeDevice());
+    const auto avx512 = traceCornellBox(rtcNewDevice("isa=avx512"));
+    EXPECT_GT(differingHits(ours, avx512), 0u);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include "common/farm/film_codec.h"
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
+#include "common/scene/accel.h"
 
 #include <iostream>
 #include <thread>
@@ -88,6 +89,7 @@ std::map<std::string, grpc::StatusCode> callEverything(
     {
         v1::RegisterRequest request;
         request.set_version(ALPHORN_VERSION);
+        request.set_platform(renderPlatform());
         request.set_name("probe");
         v1::RegisterResponse r;
         codes["Register"] = worker->Register(contextWith(token).get(), request, &r).error_code();
@@ -305,6 +307,7 @@ int lateResult(const std::string& address, const std::string& workerToken,
     auto client = v1::ClientService::NewStub(channel);
     v1::RegisterRequest registration;
     registration.set_version(ALPHORN_VERSION);
+    registration.set_platform(renderPlatform());
     registration.set_name("late-probe");
     v1::RegisterResponse registered;
     expect(worker->Register(contextWith(workerToken).get(), registration, &registered).ok(),

@@ -63,10 +63,6 @@ constexpr double kCheckpointTimeShare = 0.05;
 
 }  // namespace
 
-std::string Coordinator::mebibytes(uint64_t bytes) {
-    return absl::StrFormat("%.0f MiB", double(bytes) / (1 << 20));
-}
-
 uint64_t Coordinator::jobMemoryBytes(int width, int height, uint64_t unitCount,
                                      SmallerRadius smallerRadius) {
     return JobFilm::memoryBytes(width, height, unitCount, smallerRadius) +
@@ -207,8 +203,8 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
                        "the job needs about %s of coordinator memory (a %dx%d film and %u units; "
                        "larger tiles or more passes per unit need fewer units); running jobs "
                        "hold %s of the %s allowed (--max-memory)",
-                       mebibytes(memory), grid.width(), grid.height(), grid.unitCount(),
-                       mebibytes(m_memoryInUse), mebibytes(m_options.maxMemoryBytes)));
+                       formatBytes(memory), grid.width(), grid.height(), grid.unitCount(),
+                       formatBytes(m_memoryInUse), formatBytes(m_options.maxMemoryBytes)));
         // Reserved now, so concurrent submissions cannot overshoot together.
         m_memoryInUse += memory;
     }

@@ -197,7 +197,6 @@ class Coordinator {
         // Bumped on every change its status shows (changedLocked); WatchJob waits on it.
         std::shared_ptr<ChangeSignal> changes = std::make_shared<ChangeSignal>();
     };
-    static std::string mebibytes(uint64_t bytes);
     // Restores the workers and jobs of the state directory (recovery.cpp).
     void resume();
     // Rebuilds one job from its stored row and checkpoint; throws Error on a damaged record.

@@ -797,6 +797,51 @@ TEST_F(CoordinatorJob, ADamagedJobRecordFailsOnlyThatJob) {
     coordinator.stop();
 }
 
+// Damaged records fail their jobs at start and keep them (listed with the error, their files in
+// place) for the keep time: a state that is no job state, and sizes beyond this coordinator's
+// limits, which are refused before anything is allocated for them.
+TEST_F(CoordinatorJob, DamagedRecordsFailTheirJobsAndKeepThem) {
+    m_options.maxMemoryBytes = uint64_t(256) << 20;  // an 8000x8000 film needs ~8 GB
+    const std::pair<std::string, std::string> damages[] = {
+        {"UPDATE jobs SET state = 77 WHERE id = ?", "state 77 is not a job state"},
+        {"UPDATE jobs SET width = 100000, height = 100000 WHERE id = ?", "--max-image-pixels"},
+        {"UPDATE jobs SET width = 8000, height = 8000 WHERE id = ?", "--max-memory"},
+    };
+    std::vector<uint64_t> damaged;
+    uint64_t healthy = 0;
+    {
+        Coordinator coordinator(m_options);
+        for (size_t i = 0; i < std::size(damages); ++i)
+            damaged.push_back(coordinator.submit(upload(coordinator)).job_id());
+        healthy = coordinator.submit(upload(coordinator)).job_id();
+        coordinator.stop();
+    }
+    {
+        StateDatabase db(m_options.stateDirectory + "/state.sqlite");
+        for (size_t i = 0; i < std::size(damages); ++i)
+            db.execute(damages[i].first, {int64_t(damaged[i])});
+    }
+    Coordinator coordinator(m_options);
+    const double now =
+        std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    coordinator.pruneFinishedJobs(now + 60);
+    for (size_t i = 0; i < std::size(damages); ++i) {
+        const auto listed = coordinator.listJobs(damaged[i]);
+        ASSERT_EQ(listed.size(), 1u) << "job " << damaged[i] << " was removed at start";
+        EXPECT_EQ(listed[0].state(), v1::JOB_STATE_FAILED);
+        EXPECT_NE(listed[0].error().find("cannot resume job " + std::to_string(damaged[i])),
+                  std::string::npos)
+            << listed[0].error();
+        EXPECT_NE(listed[0].error().find(damages[i].second), std::string::npos)
+            << listed[0].error();
+        EXPECT_TRUE(fs::exists(coordinator.jobDirectory(damaged[i])));
+    }
+    renderAllUnits(coordinator, coordinator.registerWorker(thisBuild()));
+    EXPECT_EQ(coordinator.listJobs(healthy).at(0).state(), v1::JOB_STATE_DONE);
+    EXPECT_EQ(coordinator.snapshot(healthy, false).film.serialize(), localFilm());
+    coordinator.stop();
+}
+
 TEST_F(CoordinatorJob, AFinishedJobWhoseCheckpointIsLostIsRenderedAgain) {
     uint64_t jobId = 0;
     {

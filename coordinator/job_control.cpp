@@ -4,6 +4,7 @@
 // written to its event log.
 #include "coordinator/coordinator.h"
 
+#include "common/core/system_memory.h"
 #include "common/farm/convert.h"
 #include "coordinator/checkpoint.h"
 #include "coordinator/log.h"
@@ -124,8 +125,8 @@ v1::JobStatus Coordinator::retry(uint64_t jobId) {
                             absl::StrFormat("cannot retry job %u now: it needs about %s of "
                                             "coordinator memory; running jobs hold %s of the %s "
                                             "allowed (--max-memory)",
-                                            jobId, mebibytes(memory), mebibytes(m_memoryInUse),
-                                            mebibytes(m_options.maxMemoryBytes)));
+                                            jobId, formatBytes(memory), formatBytes(m_memoryInUse),
+                                            formatBytes(m_options.maxMemoryBytes)));
     }
     // The units in the job's checkpoint stay merged: their sums are exact, so finishing the
     // others gives the bytes of a fresh job. A missing or unreadable checkpoint starts afresh.

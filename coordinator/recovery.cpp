@@ -3,6 +3,7 @@
 // only its own job, and a job whose last unit was merged before a crash is finished.
 #include "coordinator/coordinator.h"
 
+#include "common/core/system_memory.h"
 #include "coordinator/checkpoint.h"
 #include "coordinator/log.h"
 
@@ -39,7 +40,13 @@ void Coordinator::resume() {
             job->film = std::make_unique<JobFilm>(job->grid, "");
             job->memoryBytes = 0;
             m_scheduler->addJob(job->id, 0, job->grid, {}, {}, false);
-            if (job->state == v1::JOB_STATE_RUNNING || job->state == v1::JOB_STATE_DONE) {
+            // The job is listed as failed and kept for --keep-finished-hours from now; a record
+            // that was failed or cancelled already keeps its own error and time. Whatever the
+            // damage, nothing is deleted at start.
+            const bool endedBefore =
+                (job->state == v1::JOB_STATE_FAILED || job->state == v1::JOB_STATE_CANCELLED) &&
+                job->finishedAt > 0;
+            if (!endedBefore) {
                 job->state = v1::JOB_STATE_FAILED;
                 job->error = message;
                 job->finishedAt = now;
@@ -68,6 +75,39 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
     if (row.filterBorder < 0 || row.filterBorder > 1024)
         fail("filter border %d is invalid", row.filterBorder);
     const v1::JobSettings& settings = job.description.settings();
+    // The record's sizes are checked against this coordinator's limits before anything is
+    // allocated for them: a damaged size must fail its job, not exhaust the machine's memory.
+    if (row.width < 1 || row.height < 1)
+        fail("its image size %dx%d is invalid", row.width, row.height);
+    if (uint64_t(row.width) * uint64_t(row.height) > m_options.maxImagePixels)
+        fail("its image of %dx%d pixels is larger than the limit of %u (--max-image-pixels)",
+             row.width, row.height, m_options.maxImagePixels);
+    if (settings.passes() > m_options.maxPasses)
+        fail("its %u passes are more than the limit of %u (--max-passes)", settings.passes(),
+             m_options.maxPasses);
+    if (settings.tile_size() < 1 || settings.tile_size() > 16384)
+        fail("its tile size %u is invalid", settings.tile_size());
+    if (settings.passes_per_unit() < 1)
+        fail("its passes per unit %u are invalid", settings.passes_per_unit());
+    const uint64_t tile = settings.tile_size();
+    const uint64_t plannedUnits = ((uint64_t(row.width) + tile - 1) / tile) *
+                                  ((uint64_t(row.height) + tile - 1) / tile) *
+                                  ((uint64_t(settings.passes()) + settings.passes_per_unit() - 1) /
+                                   settings.passes_per_unit());
+    // A running job's film is held in memory from now on, beside the jobs resumed before it; a
+    // finished job's is read when fetched (and held again only if its checkpoint is unreadable).
+    if (job.state == v1::JOB_STATE_RUNNING || job.state == v1::JOB_STATE_DONE) {
+        const uint64_t memory =
+            jobMemoryBytes(row.width, row.height, plannedUnits,
+                           row.smallerRadius ? SmallerRadius::Kept : SmallerRadius::None);
+        const uint64_t heldBefore = job.state == v1::JOB_STATE_RUNNING ? m_memoryInUse : 0;
+        if (heldBefore + memory > m_options.maxMemoryBytes)
+            fail(
+                "it needs about %s of coordinator memory (a %dx%d film and %u units); the jobs "
+                "resumed before it hold %s of the %s allowed (--max-memory)",
+                formatBytes(memory), row.width, row.height, plannedUnits, formatBytes(heldBefore),
+                formatBytes(m_options.maxMemoryBytes));
+    }
     job.filterBorder = row.filterBorder;
     job.grid =
         farm::JobGrid(TileGrid(row.width, row.height, int(settings.tile_size()), row.filterBorder,

@@ -11,7 +11,9 @@ uint64_t physicalMemoryBytes() {
 
 std::string formatBytes(uint64_t bytes) {
     if (bytes >= (uint64_t(1) << 30)) return absl::StrFormat("%.1f GiB", double(bytes) / (1 << 30));
-    return absl::StrFormat("%.0f MiB", double(bytes) / (1 << 20));
+    if (bytes >= (uint64_t(1) << 20)) return absl::StrFormat("%.0f MiB", double(bytes) / (1 << 20));
+    if (bytes >= (uint64_t(1) << 10)) return absl::StrFormat("%.0f KiB", double(bytes) / (1 << 10));
+    return absl::StrFormat("%u bytes", bytes);
 }
 
 }  // namespace alphorn

@@ -108,6 +108,7 @@ class Parser {
 
         pugi::xml_node root = doc.document_element();
         if (!root) fail("%s: the file has no root element", m_name);
+        failIfNestedTooDeep(doc);
         if (!kObjectTags.count(root.name()))
             fail("%s: the root element must be <scene> or <test>, found <%s>",
                  location(root.offset_debug()), root.name());
@@ -119,6 +120,25 @@ class Parser {
                                              m_name, parameter, value, parameter);
         out.dependencies = std::move(*m_dependencies);
         return out;
+    }
+
+    // Scenes nest a few levels (scene, mesh, bsdf, texture); the parser recurses once per level,
+    // so a file nesting thousands would overflow the stack (a crash of the coordinator that
+    // admits it). The depth is measured by pugixml's walker, which keeps its own stack.
+    static constexpr int kMaxElementDepth = 64;
+    void failIfNestedTooDeep(pugi::xml_document& doc) {
+        struct DepthCheck : pugi::xml_tree_walker {
+            pugi::xml_node tooDeep;
+            bool for_each(pugi::xml_node& node) override {
+                if (node.type() != pugi::node_element || depth() < kMaxElementDepth) return true;
+                tooDeep = node;
+                return false;
+            }
+        } check;
+        doc.traverse(check);
+        if (check.tooDeep)
+            fail("%s: <%s> is nested more than %d elements deep; scenes nest a few",
+                 location(check.tooDeep.offset_debug()), check.tooDeep.name(), kMaxElementDepth);
     }
 
     // Plugins name the files they could not read by their full path; inside a confinement root

@@ -50,6 +50,19 @@ std::string sceneWith(const std::string& body) {
            "\n</scene>\n";
 }
 
+// Nesting is limited (the parser recurses once per level): 10000 nested meshes are refused with
+// the place of the first element too deep, instead of overflowing the stack (a crash of the
+// process, at admission the coordinator's).
+TEST_F(ParserTest, ElementsNestedThousandsDeepAreRefused) {
+    std::string text = "<scene>\n";
+    for (int i = 0; i < 10000; ++i) text += "<mesh type=\"obj\">";
+    for (int i = 0; i < 10000; ++i) text += "</mesh>";
+    text += "\n</scene>\n";
+    // <scene> is level 0, its first <mesh> level 1; the name of the one at level 64 follows 63
+    // tags of 17 characters and its '<' on line 2: column 63 * 17 + 2.
+    expectError(text, {"bad.xml:2:1073", "<mesh> is nested more than 64 elements deep"});
+}
+
 TEST_F(ParserTest, LoadsMinimalSceneWithNoriDefaults) {
     std::string path = write(
         "ok.xml",

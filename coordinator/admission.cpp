@@ -4,6 +4,7 @@
 #include "common/farm/convert.h"
 #include "common/farm/job_scene.h"
 #include "common/farm/rpc.h"
+#include "common/farm/text_field.h"
 #include "common/integrator/integrator.h"
 #include "common/photon/radius_schedule.h"
 #include "common/render/error_estimate.h"
@@ -20,6 +21,10 @@ namespace fs = std::filesystem;
 using Kind = FarmError::Kind;
 
 namespace {
+
+// A job's request (its settings and the bundle's file list) and the description made of it go to
+// every worker with the job's units in one message, under gRPC's 8 MiB limit on both sides.
+constexpr size_t kMaxJobRequestBytes = size_t(4) << 20;
 
 // Passes per unit when the client leaves it to the coordinator. Units of at least ~64k samples
 // keep the per-unit cost (two round trips, compression, merge) near 1% of rendering, while at
@@ -40,9 +45,20 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
     farm::Bundle bundle = farm::fromProto(request.bundle());
     try {
         farm::validateBundle(bundle);
+        farm::checkTextField("the job's name", request.settings().name());
+        farm::checkTextField("the job's owner", request.settings().owner());
+        farm::checkTextField("the integrator override", request.settings().integrator_override(),
+                             64);
     } catch (const Error& e) {
         throw FarmError(Kind::InvalidArgument, e.what());
     }
+    // Larger, every worker that leased the job would fail to receive it.
+    if (request.ByteSizeLong() > kMaxJobRequestBytes)
+        throw FarmError(
+            Kind::InvalidArgument,
+            absl::StrFormat("the job's request is %u bytes (its bundle lists %u files); "
+                            "at most %u are allowed",
+                            request.ByteSizeLong(), bundle.files.size(), kMaxJobRequestBytes));
     uint64_t total = 0;
     for (const farm::BundleEntry& file : bundle.files) {
         if (!blobs.has(file.sha256))

@@ -114,6 +114,42 @@ TEST_F(AdmissionTest, RefusalsSayWhyAndLeaveNothingBehind) {
     EXPECT_TRUE(stagingEmpty()) << "a refused job left its bundle behind";
 }
 
+// Free text is bounded and printable, and the request as a whole stays far inside the message
+// limit its description travels to workers under (a job of an 8 MiB name made every worker that
+// leased it fail).
+TEST_F(AdmissionTest, LongOrControlTextAndHugeRequestsAreRefused) {
+    const auto refusal = [&](const v1::SubmitJobRequest& submit) {
+        try {
+            admit(submit);
+        } catch (const FarmError& e) {
+            EXPECT_EQ(e.kind, FarmError::Kind::InvalidArgument) << e.what();
+            return std::string(e.what());
+        }
+        ADD_FAILURE() << "admitted";
+        return std::string();
+    };
+    v1::SubmitJobRequest longName = request();
+    longName.mutable_settings()->set_name(std::string(300, 'n'));
+    EXPECT_NE(refusal(longName).find("the job's name is 300 bytes long"), std::string::npos);
+    v1::SubmitJobRequest escape = request();
+    escape.mutable_settings()->set_owner("me\x1b[2J");
+    EXPECT_NE(refusal(escape).find("the job's owner holds a control character"), std::string::npos);
+    v1::SubmitJobRequest newlinePath = request();
+    v1::BundleFile* extra = newlinePath.mutable_bundle()->add_files();
+    *extra = newlinePath.bundle().files(0);
+    extra->set_path("a\nlevel=error event=forged.xml");
+    EXPECT_NE(refusal(newlinePath).find("a bundle path holds a control character"),
+              std::string::npos);
+    v1::SubmitJobRequest huge = request();
+    for (int i = 0; i < 20000; ++i) {
+        v1::BundleFile* file = huge.mutable_bundle()->add_files();
+        *file = huge.bundle().files(0);
+        file->set_path("padding/" + std::string(200, 'p') + std::to_string(i));
+    }
+    EXPECT_NE(refusal(huge).find("at most 4194304 are allowed"), std::string::npos);
+    EXPECT_TRUE(stagingEmpty());
+}
+
 // A target error needs a cap and a value in (0, 1]; its job gets 1, 2 or 4 passes per unit, so
 // that every decision point (4, 8, 16, ... passes) ends a pass chunk.
 TEST_F(AdmissionTest, ATargetErrorNeedsACapAndChunksEndingAtDecisionPoints) {

@@ -7,6 +7,7 @@
 #include "common/farm/convert.h"
 #include "common/farm/film_codec.h"
 #include "common/farm/sha256.h"
+#include "common/farm/text_field.h"
 #include "common/photon/radius_schedule.h"
 #include "common/scene/accel.h"
 #include "coordinator/admission.h"
@@ -509,6 +510,11 @@ uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
                                   "of a farm runs the coordinator's version, so that a job's "
                                   "image does not depend on which workers rendered it",
                                   theirs, ALPHORN_VERSION));
+    try {
+        farm::checkTextField("the worker's name", request.name());
+    } catch (const Error& e) {
+        throw FarmError(Kind::InvalidArgument, e.what());
+    }
     // The same holds for one build on two kinds of CPU: Embree's kernels for another instruction
     // set (or another architecture) round hits differently.
     const std::string platform = renderPlatform();

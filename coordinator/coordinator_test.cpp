@@ -728,6 +728,26 @@ TEST_F(CoordinatorJob, WorkersOfAnotherVersionOrNoneAreRefused) {
 
 // Nor can a worker of this build on another kind of CPU, or one that states no platform: Embree's
 // kernels for another instruction set round hits differently.
+// A worker's name is listed, logged and exported as a metrics label: one that is too long or
+// holds control characters (a forged log line, terminal escapes) is refused.
+TEST_F(CoordinatorJob, WorkerNamesThatAreTooLongOrHoldControlCharactersAreRefused) {
+    Coordinator coordinator(m_options);
+    for (const std::string& name : {std::string(257, 'w'), std::string("w\nlevel=error"),
+                                    std::string("w\x1b]0;title\x07"), std::string("w\0x", 3)}) {
+        v1::RegisterRequest registration = thisBuild();
+        registration.set_name(name);
+        try {
+            coordinator.registerWorker(registration);
+            ADD_FAILURE() << "a worker named '" << name << "' joined";
+        } catch (const FarmError& e) {
+            EXPECT_EQ(e.kind, FarmError::Kind::InvalidArgument) << e.what();
+            EXPECT_NE(std::string(e.what()).find("the worker's name"), std::string::npos)
+                << e.what();
+        }
+    }
+    EXPECT_TRUE(coordinator.listWorkers(true).empty());
+}
+
 TEST_F(CoordinatorJob, WorkersOfAnotherPlatformOrNoneAreRefused) {
     Coordinator coordinator(m_options);
     const std::string ours = renderPlatform();

@@ -2,6 +2,7 @@
 
 #include "common/core/error.h"
 #include "common/farm/sha256.h"
+#include "common/farm/text_field.h"
 #include "common/scene/parser.h"
 
 #include <absl/strings/str_split.h>
@@ -22,10 +23,9 @@ uint64_t Bundle::totalSize() const {
 
 void validateBundlePath(const std::string& path) {
     if (path.empty()) fail("bundle path is empty");
-    if (path.size() > 4096) fail("bundle path is longer than 4096 bytes");
+    checkTextField("a bundle path", path, 4096);
     if (path.front() == '/') fail("bundle path \"%s\" is absolute; paths must be relative", path);
-    if (path.find('\\') != std::string::npos || path.find('\0') != std::string::npos)
-        fail("bundle path \"%s\" contains a backslash or NUL byte", path);
+    if (path.find('\\') != std::string::npos) fail("bundle path \"%s\" contains a backslash", path);
     for (absl::string_view part : absl::StrSplit(path, '/')) {
         if (part == "..")
             fail("bundle path \"%s\" contains \"..\"; paths may not leave the bundle", path);

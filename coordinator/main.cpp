@@ -13,11 +13,31 @@
 
 #include <CLI/CLI.hpp>
 
+#include <sys/resource.h>
+
 #include <csignal>
 #include <iostream>
 
 using namespace alphorn;
 using namespace alphorn::coordinator;
+
+namespace {
+
+// Every connection holds a file descriptor, and at the process's limit gRPC's listener stops
+// accepting for good (gRPC 1.51 gives up after accept4's EMFILE). The soft limit, often 1024, is
+// raised to the hard one (systemd's default is 524288) so that no burst of connections reaches
+// it; silent connections are closed after the handshake timeout (farm::configureServer).
+void raiseOpenFileLimit() {
+    rlimit limit{};
+    if (::getrlimit(RLIMIT_NOFILE, &limit) != 0 || limit.rlim_cur >= limit.rlim_max) return;
+    const rlim_t before = limit.rlim_cur;
+    limit.rlim_cur = limit.rlim_max;
+    if (::setrlimit(RLIMIT_NOFILE, &limit) == 0)
+        logInfo("limits.open_files",
+                {field("before", uint64_t(before)), field("now", uint64_t(limit.rlim_cur))});
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
     CLI::App app{
@@ -101,6 +121,7 @@ int main(int argc, char** argv) {
     // A file size limit (ulimit -f) must fail the write that exceeds it, like a full disk, not
     // kill the coordinator.
     std::signal(SIGXFSZ, SIG_IGN);
+    raiseOpenFileLimit();
     // Signals are taken by sigwait() in this thread below, so every thread blocks them (those
     // started later inherit the mask).
     sigset_t signals;

@@ -121,6 +121,11 @@ void configureServer(grpc::ServerBuilder& builder) {
     // treats pings more often than every 5 minutes as abuse and closes the connection.
     builder.AddChannelArgument(GRPC_ARG_HTTP2_MIN_RECV_PING_INTERVAL_WITHOUT_DATA_MS, 10000);
     builder.AddChannelArgument(GRPC_ARG_KEEPALIVE_PERMIT_WITHOUT_CALLS, 1);
+    // A connection that never completes its handshake, or carries no call for a minute, is
+    // closed: silent connections must not pile up to the process's file limit, where gRPC's
+    // listener stops accepting for good (clients reconnect on their next call).
+    builder.AddChannelArgument(GRPC_ARG_SERVER_HANDSHAKE_TIMEOUT_MS, 10000);
+    builder.AddChannelArgument(GRPC_ARG_MAX_CONNECTION_IDLE_MS, 60000);
 }
 
 namespace {

@@ -74,11 +74,33 @@ void writeEXR(const std::string& path, const Image& image) {
     });
 }
 
+void checkDeclaredImageSize(const std::string& path, uint64_t width, uint64_t height,
+                            uint64_t rawBytes, uint64_t fileBytes) {
+    if (width * height > kMaxImageFilePixels)
+        fail("%s: the image is %ux%u pixels, more than the %u (16384 x 16384) allowed", path, width,
+             height, kMaxImageFilePixels);
+    if (rawBytes > 1100 * fileBytes)
+        fail(
+            "%s: the header declares a %ux%u image (%u bytes of pixels) in a file of %u bytes, "
+            "more than its compression can hold: the file is truncated or not a real image",
+            path, width, height, rawBytes, fileBytes);
+}
+
 Image readEXR(const std::string& path) {
+    std::error_code sizeError;
+    const uint64_t fileBytes = std::filesystem::file_size(path, sizeError);
     try {
         Imf::InputFile file(path.c_str());
         Imath::Box2i window = file.header().dataWindow();
-        int width = window.max.x - window.min.x + 1, height = window.max.y - window.min.y + 1;
+        // As 64-bit integers: a crafted window's corners can be anywhere in int's range.
+        const int64_t windowWidth = int64_t(window.max.x) - window.min.x + 1;
+        const int64_t windowHeight = int64_t(window.max.y) - window.min.y + 1;
+        if (windowWidth <= 0 || windowHeight <= 0) fail("%s: the EXR's data window is empty", path);
+        // At least one channel of 16-bit halves per pixel.
+        checkDeclaredImageSize(path, uint64_t(windowWidth), uint64_t(windowHeight),
+                               2 * uint64_t(windowWidth) * uint64_t(windowHeight),
+                               sizeError ? 0 : fileBytes);
+        const int width = int(windowWidth), height = int(windowHeight);
         Image image(width, height);
         const size_t xStride = 3 * sizeof(float), yStride = xStride * width;
         char* base = reinterpret_cast<char*>(image.rgb.data()) -
@@ -92,6 +114,8 @@ Image readEXR(const std::string& path) {
         file.setFrameBuffer(frame);
         file.readPixels(window.min.y, window.max.y);
         return image;
+    } catch (const Error&) {
+        throw;
     } catch (const std::exception& e) {
         fail("%s: cannot read EXR: %s", path, e.what());
     }
@@ -172,6 +196,17 @@ Image readPNG(const std::string& path) {
     }
     png_init_io(png, file.get());
     png_read_info(png, info);
+    std::error_code sizeError;
+    const uint64_t fileBytes = std::filesystem::file_size(path, sizeError);
+    try {
+        checkDeclaredImageSize(
+            path, png_get_image_width(png, info), png_get_image_height(png, info),
+            uint64_t(png_get_rowbytes(png, info)) * png_get_image_height(png, info),
+            sizeError ? 0 : fileBytes);
+    } catch (const Error&) {
+        png_destroy_read_struct(&png, &info, nullptr);
+        throw;
+    }
     // Normalise every PNG flavour to 8-bit RGB.
     png_set_strip_16(png);
     png_set_strip_alpha(png);

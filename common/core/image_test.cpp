@@ -105,5 +105,54 @@ TEST(ImageFiles, ASuccessfulWriteReplacesTheEarlierFile) {
     fs::remove_all(directory);
 }
 
+// PNG's CRC-32 (ISO 3309), for patching a chunk.
+uint32_t crc32(const std::string& bytes) {
+    uint32_t crc = 0xffffffffu;
+    for (const char c : bytes) {
+        crc ^= static_cast<unsigned char>(c);
+        for (int bit = 0; bit < 8; ++bit) crc = (crc >> 1) ^ (0xedb88320u & (0u - (crc & 1u)));
+    }
+    return ~crc;
+}
+
+void putBigEndian(std::string& bytes, size_t offset, uint32_t value) {
+    for (int i = 0; i < 4; ++i) bytes[offset + i] = char(value >> (24 - 8 * i));
+}
+
+// A PNG of a few hundred bytes whose header claims 12000 x 12000 pixels (its IHDR chunk
+// rewritten, with a valid CRC), within the pixel limit but far beyond what its data can hold, is
+// refused before memory is allocated for the image (reading it took 1.8 GB and 20 s); one
+// claiming 60000 x 60000 is refused by the pixel limit.
+TEST(ImageFiles, ASmallFileClaimingAHugeImageIsRefused) {
+    const fs::path directory = freshDirectory("image_files_bomb");
+    const fs::path path = directory / "bomb.png";
+    writePNG(path.string(), noise(4, 4));
+    std::string bytes = contents(path);
+    ASSERT_EQ(bytes.substr(12, 4), "IHDR");
+    for (const auto& [size, expected] :
+         {std::pair<uint32_t, std::string>{12000, "the header declares a 12000x12000 image"},
+          {60000, "the image is 60000x60000 pixels, more than the 268435456"}}) {
+        putBigEndian(bytes, 16, size);
+        putBigEndian(bytes, 20, size);
+        putBigEndian(bytes, 29, crc32(bytes.substr(12, 17)));
+        std::ofstream(path, std::ios::binary) << bytes;
+        try {
+            readPNG(path.string());
+            ADD_FAILURE() << "the crafted PNG was read";
+        } catch (const Error& e) {
+            const std::string message = e.what();
+            EXPECT_NE(message.find("bomb.png: " + expected), std::string::npos) << message;
+        }
+    }
+    fs::remove_all(directory);
+}
+
+TEST(ImageFiles, DeclaredSizesBeyondTheLimitOrTheFilesCompressionAreRefused) {
+    EXPECT_NO_THROW(checkDeclaredImageSize("a.exr", 16384, 16384, 2u << 28, 1u << 20));
+    EXPECT_THROW(checkDeclaredImageSize("a.exr", 16385, 16384, 2u << 28, 1u << 30), Error);
+    EXPECT_NO_THROW(checkDeclaredImageSize("a.png", 100, 100, 1100 * 50, 50));
+    EXPECT_THROW(checkDeclaredImageSize("a.png", 100, 100, 1100 * 50 + 1, 50), Error);
+}
+
 }  // namespace
 }  // namespace alphorn

@@ -224,6 +224,19 @@ std::string PropertyList::resolvePath(const std::string& path) const {
                 "\"%s\" leaves the scene bundle through a symbolic link; paths must stay inside it",
                 path);
     }
+    // A directory, FIFO or device is refused here: reading a FIFO would wait forever for a
+    // writer, and /dev/zero would fill the memory. A file that does not exist is left to the
+    // plugin, which names what it expected.
+    std::error_code statusError;
+    const fs::file_status status = fs::status(resolved, statusError);
+    if (statusError && statusError != std::errc::no_such_file_or_directory)
+        fail("cannot use \"%s\": %s", path, statusError.message());
+    if (fs::exists(status) && !fs::is_regular_file(status))
+        fail("\"%s\" is %s, not a file", path,
+             fs::is_directory(status) ? "a directory"
+             : fs::is_fifo(status)    ? "a named pipe"
+             : fs::is_socket(status)  ? "a socket"
+                                      : "a device");
     if (m_dependencies) m_dependencies->push_back(resolved.string());
     return resolved.string();
 }

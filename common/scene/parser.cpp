@@ -93,10 +93,16 @@ class Parser {
 
   private:
     ParseResult parseFile() {
+        // Checked before opening: opening a named pipe waits for a writer, and a device such as
+        // /dev/zero never ends.
+        std::error_code statusError;
+        const auto status = std::filesystem::status(m_path, statusError);
+        if (std::filesystem::is_directory(status))
+            fail("%s: is a directory, not a scene file", m_name);
+        if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
+            fail("%s: is a named pipe, socket or device, not a scene file", m_name);
         std::ifstream file(m_path, std::ios::binary);
         if (!file) fail("%s: cannot open the scene file: %s", m_name, std::strerror(errno));
-        if (std::filesystem::is_directory(m_path))
-            fail("%s: is a directory, not a scene file", m_name);
         std::stringstream buffer;
         buffer << file.rdbuf();
         m_text = buffer.str();

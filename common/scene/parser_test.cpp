@@ -3,6 +3,7 @@
 #include "common/scene/scene.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <filesystem>
 #include <fstream>
@@ -61,6 +62,31 @@ TEST_F(ParserTest, ElementsNestedThousandsDeepAreRefused) {
     // <scene> is level 0, its first <mesh> level 1; the name of the one at level 64 follows 63
     // tags of 17 characters and its '<' on line 2: column 63 * 17 + 2.
     expectError(text, {"bad.xml:2:1073", "<mesh> is nested more than 64 elements deep"});
+}
+
+// Files that are not regular files are refused before they are opened: a named pipe would block
+// the loader forever (no writer), a device such as /dev/zero would fill the memory.
+TEST_F(ParserTest, NamedPipesAndDevicesAreRefusedWithoutBeingOpened) {
+    ASSERT_EQ(::mkfifo((m_dir / "pipe.obj").c_str(), 0600), 0);
+    ASSERT_EQ(::mkfifo((m_dir / "pipe.xml").c_str(), 0600), 0);
+    expectError(
+        "<scene>\n<mesh type=\"obj\"><string name=\"filename\" value=\"pipe.obj\"/></mesh>\n"
+        "</scene>",
+        {"bad.xml:2:2", "\"pipe.obj\" is a named pipe, not a file"});
+    expectError(
+        "<scene>\n<mesh type=\"obj\"><string name=\"filename\" value=\"/dev/zero\"/></mesh>\n"
+        "</scene>",
+        {"bad.xml:2:2", "\"/dev/zero\" is a device, not a file"});
+    for (const std::string& scene : {(m_dir / "pipe.xml").string(), std::string("/dev/zero")}) {
+        try {
+            parseSceneFile(scene);
+            ADD_FAILURE() << scene << " was parsed";
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find(scene + ": is a named pipe, socket or device"),
+                      std::string::npos)
+                << e.what();
+        }
+    }
 }
 
 TEST_F(ParserTest, LoadsMinimalSceneWithNoriDefaults) {

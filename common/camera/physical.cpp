@@ -18,8 +18,9 @@ class PhysicalCamera : public Camera {
     explicit PhysicalCamera(const PropertyList& props) : m_projection(props, m_outputSize) {
         m_apertureRadius = props.getNonNegativeFloat("apertureRadius", 0.0f);
         m_focalDistance = props.getPositiveFloat("focalDistance", 10.0f);
-        if (!std::isfinite(m_apertureRadius) || !std::isfinite(m_focalDistance))
-            props.fail("apertureRadius and focalDistance must be finite");
+        // Rays leave from the lens: beyond 1e15 Embree could not trace them.
+        if (!(m_apertureRadius <= 1e15f) || !(m_focalDistance <= 1e15f))
+            props.fail("apertureRadius and focalDistance must be at most 1e15");
     }
 
     void activate() override {

@@ -24,8 +24,10 @@ class PinholeProjection {
                        outputSize.y());
         m_cameraToWorld = props.getTransform("toWorld", Transform());
         m_fov = props.getFloat("fov", 30.0f);
-        if (!(m_fov > 0.0f && m_fov < 180.0f))
-            props.fail("fov must be in (0, 180) degrees, got %g", m_fov);
+        // Below a thousandth of a degree the image plane's float arithmetic breaks down (the
+        // camera's rays become NaN).
+        if (!(m_fov >= 1e-3f && m_fov < 180.0f))
+            props.fail("fov must be in [0.001, 180) degrees, got %g", m_fov);
         m_nearClip = props.getPositiveFloat("nearClip", 1e-4f);
         m_farClip = props.getPositiveFloat("farClip", 1e4f);
         if (!(m_farClip > m_nearClip)) props.fail("farClip must be greater than nearClip");

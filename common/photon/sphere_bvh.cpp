@@ -308,6 +308,7 @@ void EmbreeSphereIndex::query(const Point3f& origin, const Vector3f& direction, 
     rayhit.ray.id = 0;
     rayhit.ray.flags = 0;
     rayhit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    if (!embreeAcceptsRay(rayhit.ray)) return;
     rtcIntersect1(m_scene, &query.context, &rayhit);
     // Embree's traversal order is its own: sort, so the answer is the BVH's to the byte.
     sortByDistance(hits, from);

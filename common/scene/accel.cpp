@@ -113,6 +113,7 @@ bool Accel::intersect(const Ray3f& ray, Intersection& its) const {
     rayhit.ray = toEmbree(ray);
     rayhit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rayhit.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    if (!embreeAcceptsRay(rayhit.ray)) return false;
     rtcIntersect1(m_scene, &context, &rayhit);
     if (rayhit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
     its.t = rayhit.ray.tfar;
@@ -128,6 +129,8 @@ bool Accel::occluded(const Ray3f& ray) const {
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     RTCRay r = toEmbree(ray);
+    // A ray Embree cannot trace carries no light.
+    if (!embreeAcceptsRay(r)) return true;
     rtcOccluded1(m_scene, &context, &r);
     // Embree marks an occluded ray by setting tfar to -inf.
     return r.tfar < 0.0f;

@@ -46,6 +46,18 @@ uint64_t raysTracedByThisThread();
 RTCDevice newEmbreeDevice();
 inline constexpr const char* kEmbreeDeviceConfig = "max_isa=avx2";
 
+// Whether Embree accepts the ray: it aborts the process (an assertion left on in Debian's build)
+// on a ray whose origin or direction has a component that is NaN or beyond 1.844e18, or whose
+// tnear or tfar is NaN. The scene's parameters are bounded so that none arises; this keeps a ray
+// that slips through (a NaN from a degenerate sample) from taking the process down with it.
+inline bool embreeAcceptsRay(const RTCRay& ray) {
+    constexpr float kLarge = 1.844e18f;  // Embree's FLT_LARGE
+    return std::abs(ray.org_x) <= kLarge && std::abs(ray.org_y) <= kLarge &&
+           std::abs(ray.org_z) <= kLarge && std::abs(ray.dir_x) <= kLarge &&
+           std::abs(ray.dir_y) <= kLarge && std::abs(ray.dir_z) <= kLarge &&
+           ray.tnear == ray.tnear && ray.tfar == ray.tfar;
+}
+
 // The class of CPU a render's bytes depend on: its architecture and the instruction set of the
 // Embree kernels it gets under kEmbreeDeviceConfig ("x86-64 avx2", "x86-64 avx", "x86-64 sse4.2",
 // "x86-64 sse2"; other architectures by name). One build renders the same bytes on every CPU of

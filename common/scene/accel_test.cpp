@@ -21,6 +21,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstring>
+#include <limits>
 #include <random>
 #include <thread>
 
@@ -91,6 +92,24 @@ TEST(AccelRayCounts, ShadowRaysAreCountedApartFromClosestHits) {
     accel.occluded(ray);
     EXPECT_EQ(raysTracedByThisThread() - raysBefore, 3u);
     EXPECT_EQ(shadowRaysTracedByThisThread() - shadowBefore, 1u);
+}
+
+// A ray Embree would abort on (NaN or beyond its range) is a miss and carries no light, instead of
+// taking the process down.
+TEST(AccelRays, RaysEmbreeCannotTraceMissAndAreOccluded) {
+    const LoadedScene loaded;
+    const Accel& accel = loaded.scene->accel();
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    for (const Ray3f& ray : {Ray3f(Point3f(nan, 1.0f, 0.0f), Vector3f(0.0f, -1.0f, 0.0f)),
+                             Ray3f(Point3f(0.0f, 1.0f, 0.0f), Vector3f(nan, -1.0f, 0.0f)),
+                             Ray3f(Point3f(1e30f, 1.0f, 0.0f), Vector3f(-1.0f, 0.0f, 0.0f))}) {
+        Intersection its;
+        EXPECT_FALSE(accel.intersect(ray, its));
+        EXPECT_TRUE(accel.occluded(ray));
+    }
+    Intersection its;
+    EXPECT_TRUE(accel.intersect(Ray3f(Point3f(0.0f, 1.0f, 0.0f), Vector3f(0.0f, -1.0f, 0.0f)), its))
+        << "an ordinary ray towards the floor";
 }
 
 // Every hit of a fixed set of rays through the Cornell box's meshes (two spheres of 18k triangles

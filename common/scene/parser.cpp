@@ -259,10 +259,17 @@ class Parser {
         return values;
     }
 
+    // Points and vectors place things in the scene: a position of NaN, inf or beyond 1e15 would
+    // send rays Embree refuses (it aborts the process on them).
+    static constexpr float kMaxTransformEntry = 1e15f;
     Vector3f toVector3f(const pugi::xml_node& node, const std::string& text) {
         std::vector<float> v = toFloats(node, text);
         if (v.size() != 3) failAt(node, "expected 3 values, got \"%s\"", text);
-        return Vector3f(v[0], v[1], v[2]);
+        const Vector3f vector(v[0], v[1], v[2]);
+        if (!(vector.cwiseAbs().maxCoeff() <= kMaxTransformEntry))
+            failAt(node, "\"%s\" must have finite components within +-%g", text,
+                   kMaxTransformEntry);
+        return vector;
     }
 
     Color3f toColor(const pugi::xml_node& node, const std::string& text) {
@@ -438,6 +445,13 @@ class Parser {
             }
             if (!m.allFinite() || std::abs(m.determinant()) == 0.0f)
                 failAt(node, "the transform \"%s\" is singular or not finite", attr(node, "name"));
+            // Embree refuses (aborts on) rays whose origin lies beyond about 1.8e18; a camera or
+            // light placed or scaled past 1e15 would send such rays.
+            if (m.cwiseAbs().maxCoeff() > kMaxTransformEntry)
+                failAt(node,
+                       "the transform \"%s\" has an entry beyond %g; scenes must fit "
+                       "within +-%g",
+                       attr(node, "name"), kMaxTransformEntry, kMaxTransformEntry);
             failIfDuplicate(node, props);
             props.setTransform(attr(node, "name"), Transform(m));
             return;

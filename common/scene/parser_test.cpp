@@ -89,6 +89,23 @@ TEST_F(ParserTest, NamedPipesAndDevicesAreRefusedWithoutBeingOpened) {
     }
 }
 
+// Positions beyond +-1e15 (or NaN) would send rays Embree aborts the process on.
+TEST_F(ParserTest, PositionsAndTransformsBeyondTheSceneBoundAreRefused) {
+    expectError(
+        "<scene>\n<camera type=\"perspective\"><transform name=\"toWorld\">\n"
+        "<translate value=\"1e30, 0, 0\"/></transform></camera></scene>",
+        {"bad.xml:3:2", "\"1e30, 0, 0\" must have finite components within +-1e+15"});
+    expectError(
+        "<scene>\n<emitter type=\"point\">\n<point name=\"position\" value=\"nan, 0, 0\"/>"
+        "</emitter></scene>",
+        {"bad.xml:3:2", "must have finite components"});
+    expectError(
+        "<scene>\n<camera type=\"perspective\"><transform name=\"toWorld\">\n"
+        "<scale value=\"1e10, 1e10, 1e10\"/><scale value=\"1e10, 1e10, 1e10\"/>"
+        "</transform></camera></scene>",
+        {"bad.xml:2:29", "the transform \"toWorld\" has an entry beyond 1e+15"});
+}
+
 TEST_F(ParserTest, LoadsMinimalSceneWithNoriDefaults) {
     std::string path = write(
         "ok.xml",

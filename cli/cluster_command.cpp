@@ -310,7 +310,7 @@ Command addClusterCommand(CLI::App& app) {
                        ->check(kPositiveCount);
     addTargetErrorOptions(*sub, options->submit.targetError, options->submit.maxPasses,
                           options->submit.adaptive, {passes});
-    sub->add_option("--seed", options->submit.seed, "With --render: random seed");
+    sub->add_option("--seed", options->submit.seed, "With --render: random seed")->check(kSeed);
     sub->add_option("--tile", options->submit.tile, "With --render: tile size");
     sub->add_flag("--json", options->json, "With --render: print the final job status as JSON");
     return {sub, [options] {

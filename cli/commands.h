@@ -4,6 +4,9 @@
 
 #include <CLI/CLI.hpp>
 
+#include <charconv>
+#include <cmath>
+
 #include <functional>
 #include <utility>
 
@@ -32,6 +35,28 @@ inline const CLI::Validator kPositiveCount(
                    : "";
     },
     "N>=1");
+
+// Checks a seed: a decimal integer from 0 to 2^64 - 1 (CLI11 alone wraps "-1" and saturates
+// values beyond 2^64 - 1, so several spellings would give one image).
+inline const CLI::Validator kSeed(
+    [](std::string& value) -> std::string {
+        uint64_t seed = 0;
+        const auto [end, error] = std::from_chars(value.data(), value.data() + value.size(), seed);
+        if (value.empty() || error != std::errc() || end != value.data() + value.size())
+            return "a seed is an integer from 0 to 18446744073709551615, got " + value;
+        return "";
+    },
+    "SEED");
+
+// Checks a real number: NaN and infinities are refused.
+inline const CLI::Validator kFinite(
+    [](std::string& value) -> std::string {
+        double number = 0.0;
+        if (!CLI::detail::lexical_cast(value, number) || !std::isfinite(number))
+            return "must be a finite number, got " + value;
+        return "";
+    },
+    "FINITE");
 
 Command addRenderCommand(CLI::App& app);
 // The render farm client (cli/farm_commands.cpp) and the one-machine farm

@@ -177,7 +177,8 @@ Command addSubmitCommand(CLI::App& app) {
                           ->check(kPositiveCount);
     addTargetErrorOptions(*sub, options->targetError, options->maxPasses, options->adaptive,
                           {passes, sppOption});
-    sub->add_option("--seed", options->seed, "Random seed; the image is a pure function of it");
+    sub->add_option("--seed", options->seed, "Random seed; the image is a pure function of it")
+        ->check(kSeed);
     sub->add_option("--tile", options->tile, "Tile size in pixels (does not change the image)");
     sub->add_option("--passes-per-unit", options->passesPerUnit,
                     "Passes per work unit (does not change the image)");

@@ -1,5 +1,7 @@
 #include "cli/progress.h"
 
+#include "cli/commands.h"
+
 #include <absl/strings/str_format.h>
 #include <sys/ioctl.h>
 #include <unistd.h>
@@ -82,7 +84,7 @@ void addTargetErrorOptions(CLI::App& sub, std::optional<double>& targetError,
                        "Stop at the first of 4, 8, 16, ... passes (or --max-passes) whose "
                        "estimated relative RMSE of the luminance is at most E (e.g. 0.02); "
                        "needs --max-passes")
-            ->check(CLI::Range(1e-6, 1.0));
+            ->check(kFinite & CLI::Range(1e-6, 1.0));
     CLI::Option* cap = sub.add_option("--max-passes", maxPasses,
                                       "The most passes a --target-error render may take")
                            ->check(CLI::Range(1u, 1u << 20));

@@ -17,6 +17,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <charconv>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -78,10 +79,17 @@ SceneOverrides sceneOverrides(const RenderOptions& options) {
             fail("-D %s: %s is defined twice", define, name);
     }
     if (!options.size.empty()) {
+        // from_chars, not sscanf: "%d" silently wraps 4294967297 to 1.
+        const std::string& text = options.size;
+        const size_t x = text.find_first_of("xX");
         int width = 0, height = 0;
-        char x = 0, rest = 0;
-        if (std::sscanf(options.size.c_str(), "%d%c%d%c", &width, &x, &height, &rest) != 3 ||
-            (x != 'x' && x != 'X') || width < 1 || height < 1 || width > 16384 || height > 16384)
+        const auto parse = [&](size_t begin, size_t end, int& value) {
+            const auto [stop, error] =
+                std::from_chars(text.data() + begin, text.data() + end, value);
+            return begin < end && error == std::errc() && stop == text.data() + end;
+        };
+        if (x == std::string::npos || !parse(0, x, width) || !parse(x + 1, text.size(), height) ||
+            width < 1 || height < 1 || width > 16384 || height > 16384)
             fail("--size %s: expected WIDTHxHEIGHT, each from 1 to 16384 (e.g. 640x360)",
                  options.size);
         overrides.imageSize = Vector2i(width, height);
@@ -275,10 +283,12 @@ Command addRenderCommand(CLI::App& app) {
                           {spp, passes});
     sub->add_option("--threads", options->threads, "Worker threads (default: all cores)")
         ->check(CLI::Range(0, 1024));
-    sub->add_option("--seed", options->seed, "Random seed; the image is a pure function of it");
+    sub->add_option("--seed", options->seed, "Random seed; the image is a pure function of it")
+        ->check(kSeed);
     sub->add_option("--tile", options->tile, "Tile size in pixels (does not change the image)")
         ->check(CLI::Range(1, 16384));
-    sub->add_option("--exposure", options->exposure, "PNG exposure in stops (EXR is unaffected)");
+    sub->add_option("--exposure", options->exposure, "PNG exposure in stops (EXR is unaffected)")
+        ->check(kFinite);
     sub->add_option("-D,--define", options->defines,
                     "NAME=VALUE: the value of $NAME in the scene's attribute values (repeatable)")
         ->allow_extra_args(false);
@@ -290,7 +300,7 @@ Command addRenderCommand(CLI::App& app) {
     sub->add_option("--time-limit", options->timeLimit,
                     "Stop after the pass running when SECONDS have passed and write the image of "
                     "the passes done")
-        ->check(CLI::PositiveNumber);
+        ->check(kFinite & CLI::PositiveNumber);
     return {sub, [options] { return runRender(*options); }};
 }
 

@@ -87,6 +87,7 @@ Coordinator::Coordinator(CoordinatorOptions options, std::shared_ptr<const Clock
     m_scheduler = std::make_unique<LeaseScheduler>(
         *m_clock, SchedulerOptions{m_options.leaseSeconds, m_options.maxAttempts},
         LeaseTokens(m_store.leaseKey(), epoch), randomLeaseBase());
+    m_stateIdentity = farm::sha256Hex("checkpoint owner:" + m_store.leaseKey()).substr(0, 16);
     m_workers = std::make_unique<WorkerRegistry>(*m_clock, *m_scheduler, m_options.leaseSeconds);
     m_nextCheckpoint = m_clock->monotonicSeconds() + m_options.checkpointIntervalSeconds;
     m_nextPrune = m_clock->monotonicSeconds() + 1;
@@ -99,6 +100,10 @@ Coordinator::~Coordinator() {
 
 std::string Coordinator::jobDirectory(uint64_t jobId) const {
     return (fs::path(m_options.stateDirectory) / "jobs" / std::to_string(jobId)).string();
+}
+
+std::string Coordinator::checkpointOwner(uint64_t jobId) const {
+    return absl::StrFormat("job %u of state %s", jobId, m_stateIdentity);
 }
 
 void Coordinator::start() {
@@ -247,9 +252,9 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     job->memoryBytes = memory;
     job->grid = grid;
     job->filterBorder = admitted.filterBorder;
-    job->film = std::make_unique<JobFilm>(grid, jobDirectory(job->id) + "/film.ckpt",
-                                          targetError(job->description.settings()),
-                                          job->description.settings().adaptive());
+    job->film = std::make_unique<JobFilm>(
+        grid, jobDirectory(job->id) + "/film.ckpt", checkpointOwner(job->id),
+        targetError(job->description.settings()), job->description.settings().adaptive());
     job->film->startEmpty();
 
     std::unique_lock lock(m_mutex);
@@ -469,7 +474,8 @@ Coordinator::ImageSnapshot Coordinator::snapshot(uint64_t jobId, bool preview) {
         if (copyFilmInBands(jobId, source, snap.film)) return snap;
     }
     // A finished job whose film was released from memory: read its final checkpoint.
-    snap.film = std::move(JobFilm(grid, jobDirectory(jobId) + "/film.ckpt").readFile().film);
+    snap.film = std::move(
+        JobFilm(grid, jobDirectory(jobId) + "/film.ckpt", checkpointOwner(jobId)).readFile().film);
     return snap;
 }
 

@@ -132,6 +132,10 @@ class Coordinator {
     // hold a unit merged while it was copied in some rows and not in others.
     ImageSnapshot snapshot(uint64_t jobId, bool preview);
     std::string jobDirectory(uint64_t jobId) const;
+    // Who a job's checkpoints belong to: the job's id and this state directory's key (a digest
+    // of it), so that no checkpoint copied or restored into another job's directory, or into
+    // another state directory, is taken for that job's.
+    std::string checkpointOwner(uint64_t jobId) const;
     // The job's change signal (WatchJob waits on it); throws NotFound for an unknown job. It is
     // closed when the job is deleted or removed and when the coordinator begins to stop.
     std::shared_ptr<const ChangeSignal> changeSignal(uint64_t jobId);
@@ -242,6 +246,7 @@ class Coordinator {
     StateDirectoryLock m_lock;
     JobStore m_store;
     BlobStore m_blobs;
+    std::string m_stateIdentity;  // a digest of the store's key, for checkpointOwner()
     mutable std::mutex m_mutex;
     // Taken before m_mutex by the job controls (pause, priority, retry, delete), which write the
     // store or files without m_mutex, and by pruneFinishedJobs(), which must not free a job a

@@ -86,16 +86,17 @@ TEST(Checkpoint, RoundTripAndCorruption) {
     film.invalidSamples = 3;
     const std::vector<bool> merged{true, false, true};
     const std::string path = (dir / "film.ckpt").string();
-    writeCheckpoint(path, film, merged);
-    Checkpoint back = readCheckpoint(path, 5, 4, 3);
+    writeCheckpoint(path, "job 1", film, merged);
+    Checkpoint back = readCheckpoint(path, "job 1", 5, 4, 3);
     EXPECT_EQ(back.film.serialize(), film.serialize());
     EXPECT_EQ(back.merged, merged);
     EXPECT_EQ(back.film.invalidSamples, 3u);
-    EXPECT_THROW(readCheckpoint(path, 5, 4, 4), Error);  // another job's shape
+    EXPECT_THROW(readCheckpoint(path, "job 1", 5, 4, 4), Error);  // another job's shape
+    EXPECT_THROW(readCheckpoint(path, "job 2", 5, 4, 3), Error);  // another job's file
     std::string bytes = farm::readFile(path);
     bytes[20] ^= 1;
     farm::writeFileAtomically(path, bytes);
-    EXPECT_THROW(readCheckpoint(path, 5, 4, 3), Error);
+    EXPECT_THROW(readCheckpoint(path, "job 1", 5, 4, 3), Error);
     fs::remove_all(dir);
 }
 
@@ -859,6 +860,31 @@ TEST_F(CoordinatorJob, DamagedRecordsFailTheirJobsAndKeepThem) {
     renderAllUnits(coordinator, coordinator.registerWorker(thisBuild()));
     EXPECT_EQ(coordinator.listJobs(healthy).at(0).state(), v1::JOB_STATE_DONE);
     EXPECT_EQ(coordinator.snapshot(healthy, false).film.serialize(), localFilm());
+    coordinator.stop();
+}
+
+// A checkpoint names the job it belongs to: one copied into another job's directory (the same
+// image shape, another seed) is not taken for that job's, which is rendered from nothing instead
+// of finishing with the other job's image.
+TEST_F(CoordinatorJob, AnotherJobsCheckpointIsNotTakenForThisJobs) {
+    uint64_t finished = 0, running = 0;
+    {
+        Coordinator coordinator(m_options);
+        finished = coordinator.submit(upload(coordinator)).job_id();
+        renderAllUnits(coordinator, coordinator.registerWorker(thisBuild()));
+        v1::SubmitJobRequest other = upload(coordinator);
+        other.mutable_settings()->set_seed(99);
+        running = coordinator.submit(other).job_id();
+        coordinator.stop();
+        fs::copy_file(coordinator.jobDirectory(finished) + "/film.ckpt",
+                      coordinator.jobDirectory(running) + "/film.ckpt",
+                      fs::copy_options::overwrite_existing);
+    }
+    Coordinator coordinator(m_options);
+    const v1::JobStatus status = coordinator.listJobs(running).at(0);
+    EXPECT_EQ(status.state(), v1::JOB_STATE_RUNNING);
+    EXPECT_EQ(status.units_done(), 0u) << "the other job's merged units were taken up";
+    EXPECT_EQ(coordinator.listJobs(finished).at(0).state(), v1::JOB_STATE_DONE);
     coordinator.stop();
 }
 

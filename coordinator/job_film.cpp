@@ -11,10 +11,11 @@
 
 namespace alphorn::coordinator {
 
-JobFilm::JobFilm(const farm::JobGrid& grid, std::string checkpointPath,
+JobFilm::JobFilm(const farm::JobGrid& grid, std::string checkpointPath, std::string checkpointOwner,
                  std::optional<double> targetError, bool adaptive)
     : m_grid(grid),
       m_path(std::move(checkpointPath)),
+      m_owner(std::move(checkpointOwner)),
       m_merged(grid.unitCount(), false),
       m_mergedPerChunk(grid.chunkCount(), 0),
       m_targetError(targetError),
@@ -286,11 +287,11 @@ void JobFilm::merge(uint32_t unitIndex, const FilmBlock& block) {
 }
 
 void JobFilm::writeFile(const Copy& copy) const {
-    writeCheckpoint(m_path, copy.film, copy.merged);
+    writeCheckpoint(m_path, m_owner, copy.film, copy.merged);
 }
 
 Checkpoint JobFilm::readFile() const {
-    return readCheckpoint(m_path, m_grid.width(), m_grid.height(), m_grid.unitCount());
+    return readCheckpoint(m_path, m_owner, m_grid.width(), m_grid.height(), m_grid.unitCount());
 }
 
 void JobFilm::checkpointWritten(uint32_t count) {

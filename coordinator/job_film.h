@@ -40,7 +40,9 @@ class JobFilm {
     // `targetError`: the job stops at the first decision point whose estimate reaches it.
     // `adaptive` (with a target): tile-adaptive passes; the grid's tiles must each lie in one
     // tile of the adaptive grid.
-    JobFilm(const farm::JobGrid& grid, std::string checkpointPath,
+    // `checkpointOwner` is written into its checkpoints, and a checkpoint of another owner is
+    // not read back (see writeCheckpoint).
+    JobFilm(const farm::JobGrid& grid, std::string checkpointPath, std::string checkpointOwner = "",
             std::optional<double> targetError = std::nullopt, bool adaptive = false);
     JobFilm(JobFilm&&) = delete;
 
@@ -131,6 +133,7 @@ class JobFilm {
 
     farm::JobGrid m_grid;
     std::string m_path;
+    std::string m_owner;
     FilmBlock m_film;  // whole image while running; released when the job ends
     std::vector<bool> m_merged;
     std::vector<uint32_t> m_mergedPerChunk;

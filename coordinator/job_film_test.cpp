@@ -110,7 +110,7 @@ FilmBlock shrinkingNoiseBlock(const RenderUnit& unit) {
 TEST(JobFilm, ATargetErrorStopsAtTheFirstDecisionPointThatReachesIt) {
     // 2 x 2 tiles, a cap of 32 passes in chunks of 2: 4 tiles per chunk.
     const farm::JobGrid grid(TileGrid(8, 8, 4, 1), 32, 2);
-    JobFilm film(grid, "", 0.2);
+    JobFilm film(grid, "", "job", 0.2);
     film.startEmpty();
     EXPECT_EQ(film.leaseLimit(), 2u * 4) << "the passes before 4";
     for (uint32_t decision : {4u, 8u, 16u}) {
@@ -155,7 +155,7 @@ TEST(JobFilm, ACheckpointRestoresTheDecisions) {
     fs::create_directories(dir);
     const std::string path = (dir / "film.ckpt").string();
     const farm::JobGrid grid(TileGrid(8, 8, 4, 1), 32, 2);
-    JobFilm film(grid, path, 0.2);
+    JobFilm film(grid, path, "job", 0.2);
     film.startEmpty();
     // The decisions at 4 and 8 passes go on; two units of the passes before 16 are merged.
     while (film.leaseLimit() <= 4 * 4)
@@ -164,7 +164,7 @@ TEST(JobFilm, ACheckpointRestoresTheDecisions) {
     film.merge(16, shrinkingNoiseBlock(grid.unit(16)));
     film.merge(17, shrinkingNoiseBlock(grid.unit(17)));
     film.writeFile(film.copy());
-    JobFilm restored(grid, path, 0.2);
+    JobFilm restored(grid, path, "job", 0.2);
     restored.restore(restored.readFile(), true);
     EXPECT_EQ(restored.leaseLimit(), film.leaseLimit());
     EXPECT_EQ(restored.leaseLimit(), 8u * 4);
@@ -174,7 +174,7 @@ TEST(JobFilm, ACheckpointRestoresTheDecisions) {
         if (!film.merged()[i]) film.merge(i, shrinkingNoiseBlock(grid.unit(i)));
     ASSERT_TRUE(film.targetReached());
     film.writeFile(film.copy());
-    JobFilm done(grid, path, 0.2);
+    JobFilm done(grid, path, "job", 0.2);
     done.restore(done.readFile(), false);
     EXPECT_TRUE(done.complete());
     EXPECT_TRUE(done.targetReached());
@@ -215,7 +215,7 @@ TEST(JobFilm, AnAdaptiveJobSkipsTheUnitsOfFinishedTilesAcrossARestart) {
         const RenderUnit unit = grid.unit(i);
         return noiseBlock(unit, unit.tile.x0 < 32 ? 0.25 : 1.0);
     };
-    JobFilm film(grid, path, 0.2, true);
+    JobFilm film(grid, path, "job", 0.2, true);
     film.startEmpty();
     EXPECT_EQ(film.adaptiveTiles(), 2u);
     for (uint32_t i = 0, limit = film.leaseLimit(); i < limit; ++i) film.merge(i, block(i));
@@ -234,7 +234,7 @@ TEST(JobFilm, AnAdaptiveJobSkipsTheUnitsOfFinishedTilesAcrossARestart) {
     EXPECT_EQ(film.leaseLimit(), 8u * 8) << "the passes before 16";
     film.writeFile(film.copy());
 
-    JobFilm restored(grid, path, 0.2, true);
+    JobFilm restored(grid, path, "job", 0.2, true);
     restored.restore(restored.readFile(), true);
     EXPECT_EQ(restored.adaptiveTilesFinished(), 1u);
     EXPECT_EQ(restored.leaseLimit(), film.leaseLimit());
@@ -311,7 +311,7 @@ TEST(JobFilm, TheSmallerRadiusIsMergedCheckpointedAndEstimated) {
     const farm::JobGrid grid(TileGrid(4, 4, 4, 1, SmallerRadius::Kept), 4, 1);
     EXPECT_GT(JobFilm::memoryBytes(4, 4, 4, SmallerRadius::Kept),
               JobFilm::memoryBytes(4, 4, 4) + 16 * 2 * sizeof(PixelSum) - 1);
-    JobFilm film(grid, path, 0.001);
+    JobFilm film(grid, path, "job", 0.001);
     film.startEmpty();
     ASSERT_TRUE(film.film().keepsSmallerRadius());
     for (uint32_t pass = 0; pass < 4; ++pass) {
@@ -339,8 +339,8 @@ TEST(JobFilm, TheSmallerRadiusIsMergedCheckpointedAndEstimated) {
     EXPECT_EQ(status.error_bias(), *film.estimate()->relativeBias);
     const JobFilm::Copy copy = film.copy();
     film.writeFile(copy);
-    EXPECT_EQ(farm::readFile(path)[7], '3');
-    JobFilm restored(grid, path, 0.001);
+    EXPECT_EQ(farm::readFile(path)[7], '4');
+    JobFilm restored(grid, path, "job", 0.001);
     restored.restore(restored.readFile(), true);
     EXPECT_EQ(restored.film().serialize(), film.film().serialize());
     ASSERT_TRUE(restored.estimate() && restored.estimate()->relativeBias);

@@ -118,7 +118,8 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
     for (const UnitAttemptsRow& unit : m_store.unitAttempts(job.id))
         if (unit.unitIndex < unitCount) attempts[unit.unitIndex] = unit.attempts;
     job.film = std::make_unique<JobFilm>(job.grid, jobDirectory(job.id) + "/film.ckpt",
-                                         targetError(settings), settings.adaptive());
+                                         checkpointOwner(job.id), targetError(settings),
+                                         settings.adaptive());
     bool running = job.state == v1::JOB_STATE_RUNNING;
     if (running || job.state == v1::JOB_STATE_DONE) {
         const std::string checkpointPath = jobDirectory(job.id) + "/film.ckpt";

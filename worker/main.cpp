@@ -65,6 +65,9 @@ int main(int argc, char** argv) {
     }
     options.cacheBytes = static_cast<uint64_t>(cacheGiB * double(uint64_t(1) << 30));
 
+    // A file size limit (ulimit -f) must fail the cache write that exceeds it, like a full disk,
+    // not kill the worker.
+    std::signal(SIGXFSZ, SIG_IGN);
     sigset_t signals;
     sigemptyset(&signals);
     sigaddset(&signals, SIGTERM);

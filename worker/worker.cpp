@@ -22,6 +22,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -32,6 +34,7 @@ namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
 using farm::field;
+using farm::logError;
 using farm::logInfo;
 using farm::logWarning;
 
@@ -240,6 +243,38 @@ void Worker::heartbeatLoop() {
     }
 }
 
+namespace {
+
+// A failure of this machine's storage, not of the job: see Worker::m_cacheFailure.
+class CacheUnusable : public Error {
+  public:
+    using Error::Error;
+};
+
+// Why nothing can be written into `directory` (a small file written, flushed and removed), or
+// "" when it can.
+std::string cacheWriteProblem(const std::string& directory) {
+    const std::string probe = (fs::path(directory) / ".write-probe").string();
+    errno = 0;
+    {
+        std::ofstream file(probe, std::ios::binary | std::ios::trunc);
+        const std::string bytes(4096, '\0');
+        file.write(bytes.data(), std::streamsize(bytes.size()));
+        file.flush();
+        if (!file) {
+            const int error = errno;
+            std::error_code ignored;
+            fs::remove(probe, ignored);
+            return std::strerror(error ? error : EIO);
+        }
+    }
+    std::error_code ignored;
+    fs::remove(probe, ignored);
+    return "";
+}
+
+}  // namespace
+
 Worker::JobContext& Worker::prepareJob(const v1::JobDescription& job) {
     // The cached scene is reused only for the very same job: same id, bundle (content hashes),
     // seed and integrator override. An id alone is not enough: ids of different jobs have been
@@ -259,33 +294,51 @@ Worker::JobContext& Worker::prepareJob(const v1::JobDescription& job) {
     const farm::Bundle bundle = farm::fromProto(job.bundle());
     for (const auto& file : bundle.files) context->blobs.insert(file.sha256);
     const std::string directory = (jobsDirectory / std::to_string(job.job_id())).string();
-    const std::string scenePath =
-        farm::materializeBundle(bundle, directory, [&](const std::string& sha) {
-            return m_cache.get(sha, [&](const std::string& hash, const std::string& temporary) {
-                farm::RetryPolicy retry = makeRetryPolicy();
-                for (;;) {
-                    std::ofstream file(temporary, std::ios::binary | std::ios::trunc);
-                    v1::GetBlobRequest request;
-                    request.set_sha256(hash);
-                    auto ctx = this->context(600s);
-                    auto reader = m_stub->GetBlob(ctx.get(), request);
-                    v1::GetBlobChunk chunk;
-                    while (reader->Read(&chunk))
-                        file.write(chunk.data().data(), std::streamsize(chunk.data().size()));
-                    grpc::Status status = reader->Finish();
-                    if (status.ok()) return;
-                    if (!farm::isTransient(status) || m_stopRequests >= 2)
-                        fail("cannot fetch blob %s: %s", hash, status.error_message());
-                    sleepBackoff(retry);
-                }
-            });
-        });
+    std::string scenePath;
+    try {
+        scenePath = materializeJobBundle(bundle, directory);
+    } catch (const CacheUnusable&) {
+        throw;
+    } catch (const Error& e) {
+        // Whether the cache itself is at fault: then no job could be prepared here.
+        const std::string problem = cacheWriteProblem(m_options.cacheDirectory);
+        if (!problem.empty()) throw CacheUnusable(std::string(e.what()) + " (" + problem + ")");
+        throw;
+    }
     m_cache.trim(context->blobs);
     context->scene = farm::loadJobScene(directory, scenePath, job.settings().integrator_override());
     logInfo("job.loaded", {field("job", job.job_id()), field("scene", bundle.scenePath),
                            field("description", context->scene->toString())});
     m_job = std::move(context);
     return *m_job;
+}
+
+std::string Worker::materializeJobBundle(const farm::Bundle& bundle, const std::string& directory) {
+    return farm::materializeBundle(bundle, directory, [&](const std::string& sha) {
+        return m_cache.get(sha, [&](const std::string& hash, const std::string& temporary) {
+            farm::RetryPolicy retry = makeRetryPolicy();
+            for (;;) {
+                std::ofstream file(temporary, std::ios::binary | std::ios::trunc);
+                v1::GetBlobRequest request;
+                request.set_sha256(hash);
+                auto ctx = this->context(600s);
+                auto reader = m_stub->GetBlob(ctx.get(), request);
+                v1::GetBlobChunk chunk;
+                while (reader->Read(&chunk))
+                    file.write(chunk.data().data(), std::streamsize(chunk.data().size()));
+                grpc::Status status = reader->Finish();
+                file.flush();
+                if (status.ok() && !file)
+                    throw CacheUnusable(
+                        absl::StrFormat("cannot write blob %s into the worker cache: %s", hash,
+                                        std::strerror(errno ? errno : EIO)));
+                if (status.ok()) return;
+                if (!farm::isTransient(status) || m_stopRequests >= 2)
+                    fail("cannot fetch blob %s: %s", hash, status.error_message());
+                sleepBackoff(retry);
+            }
+        });
+    });
 }
 
 const std::vector<std::shared_ptr<const PassData>>& Worker::passDataFor(JobContext& context,
@@ -361,6 +414,13 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
         farm::WorkerMetrics::unitRendered(seconds, counters.samples, counters.rays);
         logInfo("unit.rendered", {field("job", job.jobId), field("unit", lease.unit().unit_index()),
                                   field("seconds", seconds)});
+    } catch (const CacheUnusable& e) {
+        logError("cache.unusable",
+                 {field("job", lease.unit().job_id()), field("unit", lease.unit().unit_index()),
+                  field("cache", m_options.cacheDirectory), field("error", e.what()),
+                  field("action", "handing back")});
+        m_cacheFailure = e.what();
+        header.set_handed_back(true);
     } catch (const std::exception& e) {
         farm::WorkerMetrics::unitFailed();
         logWarning("unit.failed",
@@ -483,6 +543,9 @@ void Worker::sayGoodbye() {
 }
 
 int Worker::run() {
+    // A cache that went read-only or full since it was made would fail every unit given here.
+    if (const std::string problem = cacheWriteProblem(m_options.cacheDirectory); !problem.empty())
+        fail("the worker cache %s cannot be written: %s", m_options.cacheDirectory, problem);
     registerWithCoordinator();
     m_heartbeat = std::thread([this] { heartbeatLoop(); });
     farm::RetryPolicy retry = makeRetryPolicy();
@@ -552,6 +615,7 @@ int Worker::run() {
         m_activeLeases.erase(lease.lease_id());
         m_fencedLeases.erase(lease.lease_id());
         askingForWork = farm::Stopwatch();
+        if (!m_cacheFailure.empty()) break;
     }
     // No heartbeat may follow the goodbye: it would list the worker alive again.
     {
@@ -561,6 +625,12 @@ int Worker::run() {
     m_leaseWake.notify_all();
     if (m_heartbeat.joinable()) m_heartbeat.join();
     sayGoodbye();
+    if (!m_cacheFailure.empty())
+        fail(
+            "the worker cache %s cannot be written: %s; the unit went back to the coordinator "
+            "for another worker. Free space in it or make it writable, then start the worker "
+            "again",
+            m_options.cacheDirectory, m_cacheFailure);
     logInfo("worker.drained", {field("worker", m_workerId.load())});
     return 0;
 }

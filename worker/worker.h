@@ -9,6 +9,7 @@
 #pragma once
 
 #include "alphorn/v1/worker_service.grpc.pb.h"
+#include "common/farm/bundle.h"
 #include "common/farm/retry_policy.h"
 #include "common/render/unit.h"
 #include "worker/blob_cache.h"
@@ -92,6 +93,9 @@ class Worker {
                                                                     uint32_t begin, uint32_t end,
                                                                     bool& built);
     std::optional<Result> renderLease(const v1::AcquireWorkResponse& lease);
+    // The bundle's files in `directory`, fetched into the cache as needed; returns the scene's
+    // path.
+    std::string materializeJobBundle(const farm::Bundle& bundle, const std::string& directory);
     // Delivers until the coordinator answers (merged, discarded or refused) or the lease is
     // fenced; keeps the result through outages. Returns false when it had to give up (draining).
     bool deliver(Result& result);
@@ -123,6 +127,9 @@ class Worker {
     grpc::ClientContext* m_acquireContext = nullptr;  // cancelled by requestStop()
     bool m_finished = false;
     std::thread m_heartbeat;
+    // Set when this machine's cache could not be written (read-only, full): the unit is handed
+    // back, not failed, and the worker stops rather than fail every job it is given.
+    std::string m_cacheFailure;
 };
 
 }  // namespace alphorn::worker

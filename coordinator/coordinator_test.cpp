@@ -78,6 +78,23 @@ TEST(BlobStore, VerifiesLimitsAndDeduplicates) {
     fs::remove_all(dir);
 }
 
+// A database error names the database's file and the statement's first line (a CREATE TABLE
+// statement spans ten), not the statement whole.
+TEST(StateDatabase, ErrorsNameTheFileAndTheStatementsFirstLine) {
+    const fs::path dir = freshDirectory("state_db_errors");
+    const std::string path = (dir / "state.sqlite").string();
+    StateDatabase db(path);
+    try {
+        db.execute("SELECT * FROM no_such_table\nWHERE 1 = 1");
+        ADD_FAILURE() << "no error";
+    } catch (const StorageError& e) {
+        EXPECT_EQ(std::string(e.what()), path +
+                                             ": SQL error in \"SELECT * FROM no_such_table...\": "
+                                             "no such table: no_such_table");
+    }
+    fs::remove_all(dir);
+}
+
 TEST(Checkpoint, RoundTripAndCorruption) {
     const fs::path dir = freshDirectory("checkpoint");
     FilmBlock film(0, 0, 5, 4);

@@ -15,7 +15,7 @@ struct Statement {
 
 }  // namespace
 
-StateDatabase::StateDatabase(const std::string& path) {
+StateDatabase::StateDatabase(const std::string& path) : m_path(path) {
     if (sqlite3_open_v2(path.c_str(), &m_db,
                         SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX,
                         nullptr) != SQLITE_OK) {
@@ -30,6 +30,13 @@ StateDatabase::StateDatabase(const std::string& path) {
     execute("PRAGMA synchronous=FULL");
 }
 
+std::string StateDatabase::sqlError(const char* what, const std::string& sql) const {
+    std::string statement = sql.substr(0, sql.find('\n'));
+    if (statement.size() > 60) statement = statement.substr(0, 60);
+    if (statement.size() < sql.size()) statement += "...";
+    return absl::StrFormat("%s: %s in \"%s\": %s", m_path, what, statement, sqlite3_errmsg(m_db));
+}
+
 StateDatabase::~StateDatabase() {
     sqlite3_close(m_db);
 }
@@ -39,7 +46,7 @@ std::vector<StateDatabase::Row> StateDatabase::query(const std::string& sql,
     std::lock_guard lock(m_mutex);
     Statement statement;
     if (sqlite3_prepare_v2(m_db, sql.c_str(), -1, &statement.handle, nullptr) != SQLITE_OK)
-        throw StorageError(absl::StrFormat("SQL error in \"%s\": %s", sql, sqlite3_errmsg(m_db)));
+        throw StorageError(sqlError("SQL error", sql));
     for (size_t i = 0; i < parameters.size(); ++i) {
         const int index = static_cast<int>(i) + 1;
         const Value& value = parameters[i];
@@ -55,17 +62,13 @@ std::vector<StateDatabase::Row> StateDatabase::query(const std::string& sql,
             rc = sqlite3_bind_blob(statement.handle, index, bytes.data(),
                                    static_cast<int>(bytes.size()), SQLITE_TRANSIENT);
         }
-        if (rc != SQLITE_OK)
-            throw StorageError(
-                absl::StrFormat("SQL bind error in \"%s\": %s", sql, sqlite3_errmsg(m_db)));
+        if (rc != SQLITE_OK) throw StorageError(sqlError("SQL bind error", sql));
     }
     std::vector<Row> rows;
     for (;;) {
         int rc = sqlite3_step(statement.handle);
         if (rc == SQLITE_DONE) break;
-        if (rc != SQLITE_ROW)
-            throw StorageError(
-                absl::StrFormat("SQL error in \"%s\": %s", sql, sqlite3_errmsg(m_db)));
+        if (rc != SQLITE_ROW) throw StorageError(sqlError("SQL error", sql));
         Row row;
         for (int c = 0; c < sqlite3_column_count(statement.handle); ++c) {
             switch (sqlite3_column_type(statement.handle, c)) {

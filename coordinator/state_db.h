@@ -43,6 +43,11 @@ class StateDatabase {
     static std::string text(const Value& value);
 
   private:
+    // "PATH: SQL error in "STATEMENT...": SQLite's message", the statement shortened to its
+    // first line.
+    std::string sqlError(const char* what, const std::string& sql) const;
+
+    std::string m_path;
     sqlite3* m_db = nullptr;
     std::mutex m_mutex;  // SQLite connections are not shared between threads without it
 };

@@ -131,9 +131,15 @@ void Coordinator::stop() {
     m_backgroundWake.notify_all();
     m_workAvailable.notify_all();
     if (m_background.joinable()) m_background.join();
-    checkpointDirtyJobs();
+    m_jobsUnsavedAtStop = checkpointDirtyJobs();
     saveChangedEventLogs();
-    logInfo("coordinator.stopped");
+    if (m_jobsUnsavedAtStop > 0)
+        logError("coordinator.stopped", {field("jobs_unsaved", m_jobsUnsavedAtStop),
+                                         field("consequence",
+                                               "their units merged since the last checkpoint are "
+                                               "rendered again after a restart")});
+    else
+        logInfo("coordinator.stopped");
 }
 
 void Coordinator::backgroundLoop() {
@@ -851,8 +857,9 @@ void Coordinator::writeJobCheckpoint(Job& job, const JobFilm::Copy& copy) {
              field("ms", absl::StrFormat("%.1f", 1000 * (m_clock->monotonicSeconds() - start)))});
 }
 
-void Coordinator::checkpointDirtyJobs() {
+int Coordinator::checkpointDirtyJobs() {
     std::vector<Job*> dirty, complete;
+    int failed = 0;
     {
         std::lock_guard lock(m_mutex);
         for (auto& [id, job] : m_jobs) {
@@ -879,8 +886,10 @@ void Coordinator::checkpointDirtyJobs() {
             writeJobCheckpoint(*job, copy);
         } catch (const std::exception& e) {
             logWarning("checkpoint.failed", {field("job", job->id), field("error", e.what())});
+            ++failed;
         }
     }
+    return failed;
 }
 
 }  // namespace alphorn::coordinator

@@ -83,6 +83,9 @@ class Coordinator {
     // Stops the background thread and checkpoints every running job with unwritten merges (clean
     // shutdown loses nothing).
     void stop();
+    // After stop(): how many running jobs' last checkpoint could not be written (a full or
+    // read-only state directory), whose merged units a restart renders again.
+    int jobsUnsavedAtStop() const { return m_jobsUnsavedAtStop; }
     // The background work, once: expires leases that are past their deadline, and when due
     // (by the clock) removes what the keep time lets go (every minute) and checkpoints the jobs
     // with new merges (every checkpoint interval). The background thread calls it; without
@@ -211,7 +214,8 @@ class Coordinator {
     bool copyFilmInBands(uint64_t jobId, const JobFilm* source, FilmBlock& target);
     void backgroundLoop();
     void expireLeases();
-    void checkpointDirtyJobs();
+    // Returns how many running jobs' checkpoints could not be written.
+    int checkpointDirtyJobs();
     // Writes `copy` unless a newer checkpoint of the job exists already.
     void writeJobCheckpoint(Job& job, const JobFilm::Copy& copy);
     // Called without m_mutex held once every unit is merged: writes the final checkpoint, then
@@ -246,6 +250,7 @@ class Coordinator {
     StateDirectoryLock m_lock;
     JobStore m_store;
     BlobStore m_blobs;
+    int m_jobsUnsavedAtStop = 0;
     std::string m_stateIdentity;  // a digest of the store's key, for checkpointOwner()
     mutable std::mutex m_mutex;
     // Taken before m_mutex by the job controls (pause, priority, retry, delete), which write the

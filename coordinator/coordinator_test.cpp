@@ -1336,6 +1336,31 @@ TEST_F(CoordinatorJob, AJobsChangeSignalWakesWatchersOnMergeAndCancel) {
     coordinator.stop();
 }
 
+// A stop whose last checkpoint cannot be written (here a file size limit, as a full state disk)
+// counts the jobs left unsaved, for the process to exit non-zero (it exited 0, silently losing
+// the merges to re-rendering).
+TEST_F(CoordinatorJob, AStopThatCannotSaveMergedUnitsCountsTheJobs) {
+    m_options.checkpointIntervalSeconds = 1e6;  // no checkpoint before the stop's
+    Coordinator coordinator(m_options);
+    coordinator.submit(upload(coordinator));
+    const uint64_t worker = coordinator.registerWorker(thisBuild());
+    const v1::AcquireWorkResponse lease =
+        coordinator.acquire(worker, std::chrono::steady_clock::now());
+    ASSERT_TRUE(lease.has_work());
+    std::string compressed;
+    const v1::ResultChunk header = render(lease, worker, compressed);
+    ASSERT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
+    std::signal(SIGXFSZ, SIG_IGN);  // a failed write, not a killed process
+    rlimit original{};
+    ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &original), 0);
+    rlimit limited = original;
+    limited.rlim_cur = 100;
+    ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &limited), 0);
+    coordinator.stop();
+    ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &original), 0);
+    EXPECT_EQ(coordinator.jobsUnsavedAtStop(), 1);
+}
+
 // A write that fails (here a file size limit, as a full disk) must not publish a short blob
 // under the full blob's hash; once writes succeed again the same upload stores it.
 TEST(BlobStore, AFailedWriteNeverPublishesTheBlob) {

@@ -7,6 +7,7 @@
 namespace alphorn::coordinator {
 
 using farm::field;
+using farm::logError;
 using farm::LogField;
 using farm::logInfo;
 using farm::LogSink;

@@ -212,7 +212,9 @@ int main(int argc, char** argv) {
         if (webDashboard) webDashboard->stop();
         server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
         coordinator.stop();
-        return 0;
+        // The merged work that could not be saved is not lost for the image (a restart renders
+        // it again), but whoever stopped the coordinator must hear that the state disk failed.
+        return coordinator.jobsUnsavedAtStop() > 0 ? 1 : 0;
     } catch (const std::exception& e) {
         std::cerr << "alphorn-coordinator: error: " << e.what() << "\n";
         return 1;

@@ -431,8 +431,29 @@ grpc::Status WorkerServiceImpl::GetBlob(grpc::ServerContext* context,
                                         grpc::ServerWriter<v1::GetBlobChunk>* writer) {
     return guarded(context, m_token, "GetBlob", [&] {
         if (!m_coordinator.blobs().has(request->sha256()))
-            return grpc::Status(grpc::StatusCode::NOT_FOUND, "no blob " + request->sha256());
-        std::ifstream file(m_coordinator.blobs().pathOf(request->sha256()), std::ios::binary);
+            return grpc::Status(
+                grpc::StatusCode::NOT_FOUND,
+                absl::StrFormat("the coordinator has no blob %s (a copy found damaged on its disk "
+                                "is removed): submit the scene again to upload it",
+                                request->sha256()));
+        // A stored blob is checked before it is served: one damaged on the coordinator's disk
+        // would otherwise fail every unit of every job that uses it as "arrived corrupt", and,
+        // still listed as stored, would never be uploaded again. It is removed, so the next
+        // submission of the scene uploads it anew.
+        const std::string path = m_coordinator.blobs().pathOf(request->sha256());
+        const std::string actual = farm::sha256OfFile(path);
+        if (actual != request->sha256()) {
+            m_coordinator.blobs().remove(request->sha256());
+            logError("blob.damaged", {field("blob", request->sha256()), field("hashes_to", actual),
+                                      field("action", "removed")});
+            return grpc::Status(
+                grpc::StatusCode::DATA_LOSS,
+                absl::StrFormat("the coordinator's copy of blob %s was damaged on its disk (it "
+                                "hashes to %s) and has been removed: submit the scene again to "
+                                "upload it",
+                                request->sha256(), actual));
+        }
+        std::ifstream file(path, std::ios::binary);
         const uint64_t total = m_coordinator.blobs().size(request->sha256());
         farm::sendChunks(
             file,

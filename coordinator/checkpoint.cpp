@@ -82,7 +82,7 @@ Checkpoint readCheckpoint(const std::string& path, const std::string& owner, int
     Checkpoint checkpoint;
     const uint64_t invalid = take<uint64_t>(body, offset);
     PassHalves halves = PassHalves::None;
-    if (version != kVersionWithoutHalves) {
+    if (version >= kVersionWithoutSmallerRadius) {
         const uint8_t kept = take<uint8_t>(body, offset);
         if (kept > 1) fail("%s: checkpoint has an invalid pass-halves flag %u", path, kept);
         halves = kept ? PassHalves::Kept : PassHalves::None;

@@ -722,6 +722,18 @@ TEST_F(CoordinatorJob, OnlyLeasesGrantedEarlierAreReadopted) {
     coordinator.stop();
 }
 
+// Registers `registration`, expecting a refusal of `kind` whose message mentions `mention`.
+void expectRefusedRegistration(Coordinator& coordinator, const v1::RegisterRequest& registration,
+                               FarmError::Kind kind, const std::string& mention) {
+    try {
+        coordinator.registerWorker(registration);
+        ADD_FAILURE() << "a worker joined: " << registration.ShortDebugString();
+    } catch (const FarmError& e) {
+        EXPECT_EQ(e.kind, kind) << e.what();
+        EXPECT_NE(std::string(e.what()).find(mention), std::string::npos) << e.what();
+    }
+}
+
 // A worker of another build, or one that states no version, cannot join: the units of two builds
 // need not sum to the same image. Refused workers leave no record.
 TEST_F(CoordinatorJob, WorkersOfAnotherVersionOrNoneAreRefused) {
@@ -731,13 +743,8 @@ TEST_F(CoordinatorJob, WorkersOfAnotherVersionOrNoneAreRefused) {
     for (const std::string& version : {std::string(), otherPatch, "9" + ours, ours + "-dirty"}) {
         v1::RegisterRequest registration;
         registration.set_version(version);
-        try {
-            coordinator.registerWorker(registration);
-            ADD_FAILURE() << "a worker of version '" << version << "' joined";
-        } catch (const FarmError& e) {
-            EXPECT_EQ(e.kind, FarmError::Kind::FailedPrecondition) << e.what();
-            EXPECT_NE(std::string(e.what()).find(ours), std::string::npos) << e.what();
-        }
+        expectRefusedRegistration(coordinator, registration, FarmError::Kind::FailedPrecondition,
+                                  ours);
     }
     EXPECT_TRUE(coordinator.listWorkers(true).empty());
     EXPECT_GT(coordinator.registerWorker(thisBuild()), 0u);
@@ -746,26 +753,6 @@ TEST_F(CoordinatorJob, WorkersOfAnotherVersionOrNoneAreRefused) {
 
 // Nor can a worker of this build on another kind of CPU, or one that states no platform: Embree's
 // kernels for another instruction set round hits differently.
-// A worker's name is listed, logged and exported as a metrics label: one that is too long or
-// holds control characters (a forged log line, terminal escapes) is refused.
-TEST_F(CoordinatorJob, WorkerNamesThatAreTooLongOrHoldControlCharactersAreRefused) {
-    Coordinator coordinator(m_options);
-    for (const std::string& name : {std::string(257, 'w'), std::string("w\nlevel=error"),
-                                    std::string("w\x1b]0;title\x07"), std::string("w\0x", 3)}) {
-        v1::RegisterRequest registration = thisBuild();
-        registration.set_name(name);
-        try {
-            coordinator.registerWorker(registration);
-            ADD_FAILURE() << "a worker named '" << name << "' joined";
-        } catch (const FarmError& e) {
-            EXPECT_EQ(e.kind, FarmError::Kind::InvalidArgument) << e.what();
-            EXPECT_NE(std::string(e.what()).find("the worker's name"), std::string::npos)
-                << e.what();
-        }
-    }
-    EXPECT_TRUE(coordinator.listWorkers(true).empty());
-}
-
 TEST_F(CoordinatorJob, WorkersOfAnotherPlatformOrNoneAreRefused) {
     Coordinator coordinator(m_options);
     const std::string ours = renderPlatform();
@@ -774,16 +761,25 @@ TEST_F(CoordinatorJob, WorkersOfAnotherPlatformOrNoneAreRefused) {
         if (platform == ours) continue;
         v1::RegisterRequest registration = thisBuild();
         registration.set_platform(platform);
-        try {
-            coordinator.registerWorker(registration);
-            ADD_FAILURE() << "a worker on platform '" << platform << "' joined";
-        } catch (const FarmError& e) {
-            EXPECT_EQ(e.kind, FarmError::Kind::FailedPrecondition) << e.what();
-            EXPECT_NE(std::string(e.what()).find(ours), std::string::npos) << e.what();
-        }
+        expectRefusedRegistration(coordinator, registration, FarmError::Kind::FailedPrecondition,
+                                  ours);
     }
     EXPECT_TRUE(coordinator.listWorkers(true).empty());
     EXPECT_GT(coordinator.registerWorker(thisBuild()), 0u);
+}
+
+// A worker's name is listed, logged and exported as a metrics label: one that is too long or
+// holds control characters (a forged log line, terminal escapes) is refused.
+TEST_F(CoordinatorJob, WorkerNamesThatAreTooLongOrHoldControlCharactersAreRefused) {
+    Coordinator coordinator(m_options);
+    for (const std::string& name : {std::string(257, 'w'), std::string("w\nlevel=error"),
+                                    std::string("w\x1b]0;title\x07"), std::string("w\0x", 3)}) {
+        v1::RegisterRequest registration = thisBuild();
+        registration.set_name(name);
+        expectRefusedRegistration(coordinator, registration, FarmError::Kind::InvalidArgument,
+                                  "the worker's name");
+    }
+    EXPECT_TRUE(coordinator.listWorkers(true).empty());
 }
 
 TEST_F(CoordinatorJob, WorkersNotSeenForTheKeepTimeAreForgotten) {

@@ -57,6 +57,22 @@ void Accel::release() {
     m_device = nullptr;
 }
 
+unsigned attachTriangles(RTCDevice device, RTCScene scene, const Mesh& mesh) {
+    RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    float* vertices = static_cast<float*>(
+        rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                3 * sizeof(float), mesh.vertexCount()));
+    std::copy_n(mesh.positions().data(), 3 * mesh.vertexCount(), vertices);
+    uint32_t* indices = static_cast<uint32_t*>(
+        rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                3 * sizeof(uint32_t), mesh.triangleCount()));
+    std::copy_n(mesh.faces().data(), 3 * mesh.triangleCount(), indices);
+    rtcCommitGeometry(geometry);
+    const unsigned id = rtcAttachGeometry(scene, geometry);
+    rtcReleaseGeometry(geometry);
+    return id;
+}
+
 void Accel::build(const std::vector<std::shared_ptr<Mesh>>& meshes) {
     release();
     m_device = newEmbreeDevice();
@@ -66,18 +82,7 @@ void Accel::build(const std::vector<std::shared_ptr<Mesh>>& meshes) {
     m_bounds.setEmpty();
     for (const auto& mesh : meshes) {
         if (mesh->triangleCount() == 0) continue;
-        RTCGeometry geometry = rtcNewGeometry(m_device, RTC_GEOMETRY_TYPE_TRIANGLE);
-        float* vertices = static_cast<float*>(
-            rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                    3 * sizeof(float), mesh->vertexCount()));
-        std::copy_n(mesh->positions().data(), 3 * mesh->vertexCount(), vertices);
-        uint32_t* indices = static_cast<uint32_t*>(
-            rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                    3 * sizeof(uint32_t), mesh->triangleCount()));
-        std::copy_n(mesh->faces().data(), 3 * mesh->triangleCount(), indices);
-        rtcCommitGeometry(geometry);
-        unsigned id = rtcAttachGeometry(m_scene, geometry);
-        rtcReleaseGeometry(geometry);
+        const unsigned id = attachTriangles(m_device, m_scene, *mesh);
         if (id != m_meshes.size()) fail("Embree assigned an unexpected geometry id");
         m_meshes.push_back(mesh.get());
         m_bounds.extend(mesh->bounds());

@@ -66,6 +66,9 @@ inline bool embreeAcceptsRay(const RTCRay& ray) {
 // BMI2); the glibc maths functions' FMA variants follow the same flags.
 std::string renderPlatform();
 
+// Attaches `mesh`'s triangles to `scene` as one geometry made on `device`; returns its id.
+unsigned attachTriangles(RTCDevice device, RTCScene scene, const Mesh& mesh);
+
 // rtcCommitScene run by the calling thread alone, inside a task arena of one thread. Embree builds
 // in the caller's arena, and its parallel partitioning cuts the primitives into as many ranges as
 // the arena has threads: the order of primitives within leaves, hence which of two equally near

@@ -121,20 +121,7 @@ std::vector<std::array<uint32_t, 5>> traceCornellBox(RTCDevice device) {
     const LoadedScene loaded;
     RTCScene scene = rtcNewScene(device);
     rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
-    for (const auto& mesh : loaded.scene->meshes()) {
-        RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-        float* vertices = static_cast<float*>(
-            rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                    3 * sizeof(float), mesh->vertexCount()));
-        std::copy_n(mesh->positions().data(), 3 * mesh->vertexCount(), vertices);
-        uint32_t* indices = static_cast<uint32_t*>(
-            rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                    3 * sizeof(uint32_t), mesh->triangleCount()));
-        std::copy_n(mesh->faces().data(), 3 * mesh->triangleCount(), indices);
-        rtcCommitGeometry(geometry);
-        rtcAttachGeometry(scene, geometry);
-        rtcReleaseGeometry(geometry);
-    }
+    for (const auto& mesh : loaded.scene->meshes()) attachTriangles(device, scene, *mesh);
     commitEmbreeScene(scene);
     std::mt19937 random(17);
     std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);

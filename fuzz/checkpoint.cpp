@@ -18,8 +18,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const std::string path = fuzz::scratchDirectory() + "/film.ckpt";
     fuzz::writeFile(path, file);
     try {
-        coordinator::Checkpoint checkpoint =
-            coordinator::readCheckpoint(path, shape.width, shape.height, shape.units);
+        coordinator::Checkpoint checkpoint = coordinator::readCheckpoint(
+            path, fuzz::kCheckpointOwner, shape.width, shape.height, shape.units);
         if (checkpoint.merged.size() != shape.units || checkpoint.film.width() != shape.width ||
             checkpoint.film.height() != shape.height) {
             std::fprintf(stderr, "readCheckpoint accepted a checkpoint of the wrong shape\n");

@@ -70,6 +70,8 @@ struct CheckpointShape {
     bool appendChecksum;
 };
 constexpr size_t kCheckpointHeaderBytes = 4;
+// The owner the corpus's checkpoints are written for and the fuzzer reads them as.
+inline constexpr const char* kCheckpointOwner = "job 1";
 inline CheckpointShape checkpointShapeFromHeader(const uint8_t* header) {
     return {1 + header[0] % 16, 1 + header[1] % 16, header[2], (header[3] & 1) != 0};
 }

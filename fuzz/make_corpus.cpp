@@ -67,7 +67,8 @@ int main(int argc, char** argv) {
     // Header bytes as fuzz::checkpointShapeFromHeader reads them: width-1, height-1, units,
     // flags. With the checksum flag the input holds the file without its 64-byte trailer.
     const std::string path = fuzz::scratchDirectory() + "/film.ckpt";
-    coordinator::writeCheckpoint(path, sampleFilm({0, 0, 4, 3}), {true, false, true, true, false});
+    coordinator::writeCheckpoint(path, fuzz::kCheckpointOwner, sampleFilm({0, 0, 4, 3}),
+                                 {true, false, true, true, false});
     const std::string file = farm::readFile(path);
     write(out / "checkpoint/checkpoint_4x3", header(3, 2, 5, 1) + file.substr(0, file.size() - 64));
     write(out / "checkpoint/checkpoint_4x3_with_checksum", header(3, 2, 5, 0) + file);

@@ -50,6 +50,11 @@ class BSDF : public Object {
     virtual bool isDiffuse() const { return false; }
     // True when light passes straight through without change (index-matched media boundary).
     virtual bool isNull() const { return false; }
+    // True when the BSDF is not symmetric about the normal (a normal map's tangent-space data),
+    // so that its hits need a shading frame whose tangent follows the texture's u direction. Every
+    // other BSDF is isotropic: any frame about the normal gives the same distribution, and hits
+    // get the cheaper one built from the normal alone.
+    virtual bool needsTangentFrame() const { return false; }
     // For a BSDF whose sample() chooses at random among several delta directions (glass:
     // reflection or refraction, by the Fresnel reflectance): writes each direction it can take
     // for this rec.wi, with its weight, and returns how many (at most kMaxDeltaLobes). An

@@ -71,6 +71,7 @@ class NormalMap : public BSDF {
     }
 
     bool isDiffuse() const override { return m_nested->isDiffuse(); }
+    bool needsTangentFrame() const override { return true; }
     std::string toString() const override { return "normalmap of " + m_nested->toString(); }
 
     static constexpr float kMinCos = 0.02f;

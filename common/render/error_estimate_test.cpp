@@ -605,7 +605,7 @@ TEST(ErrorEstimate, HalvesAndStoppingPassIgnoreThreadsAndTiles) {
             settings.passesPerUnit = tile == 8 ? 4 : 1;
             const std::string bytes = renderLocal(*scene, settings).serialize();
             settings.passes = 256;
-            settings.targetError = 0.3;
+            settings.targetError = 0.25;
             RenderStatus status;
             const std::string targetBytes =
                 renderLocal(*scene, settings, {}, nullptr, &status).serialize();

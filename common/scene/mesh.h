@@ -109,6 +109,9 @@ class Mesh : public Object {
     std::shared_ptr<Emitter> m_emitter;
     std::shared_ptr<Medium> m_inside, m_outside;
     bool m_hasMediumInterface = false;
+    // Whether hits get the shading frame aligned with the uvs' u direction (the mesh has uvs
+    // and its BSDF needs a tangent) or the one built from the normal alone.
+    bool m_frameFollowsUvs = false;
 };
 
 inline Normal3f Intersection::geometricNormal() const {

@@ -31,13 +31,19 @@ std::string meshFile(const std::string& mesh) {
     return std::string(ALPHORN_SOURCE_DIR) + "/scenes/meshes/" + mesh;
 }
 
-// A scene holding one of the repository's meshes.
-std::shared_ptr<Scene> sceneWithMesh(const std::string& mesh, const std::string& transform = "") {
+// A scene holding one of the repository's meshes, with the default BSDF unless `children` name
+// one.
+std::shared_ptr<Scene> sceneWithMesh(const std::string& mesh, const std::string& children = "") {
     return sceneFrom(R"(<scene><integrator type="normals"/>
 <camera type="perspective"><integer name="width" value="4"/><integer name="height" value="4"/></camera>
 <mesh type="obj"><string name="filename" value=")" +
-                     meshFile(mesh) + R"("/>)" + transform + "</mesh></scene>");
+                     meshFile(mesh) + R"("/>)" + children + "</mesh></scene>");
 }
+
+// A BSDF that needs the tangent: a normal map (whose unperturbed normals change nothing).
+const std::string kNormalMap = R"(<bsdf type="normalmap"><bsdf type="diffuse"/>
+  <texture type="constant" name="normalmap"><color name="value" value="0.5, 0.5, 1"/></texture>
+</bsdf>)";
 
 Intersection hit(const Scene& scene, const Point3f& origin, const Vector3f& direction) {
     Intersection its;
@@ -49,14 +55,15 @@ Intersection hit(const Scene& scene, const Point3f& origin, const Vector3f& dire
 // (normal maps) keeps its orientation relative to the texture. quad.obj maps u to +x and v to +z
 // under a +y normal: a mirrored mapping, so the bitangent is +z rather than n x s = -z.
 TEST(MeshTangents, FollowTheUvDirectionsOnAPlane) {
-    auto scene = sceneWithMesh("quad.obj");
+    auto scene = sceneWithMesh("quad.obj", kNormalMap);
     const Intersection its = hit(*scene, Point3f(0.3f, 1.0f, 0.2f), Vector3f(0, -1, 0));
     EXPECT_NEAR(its.shFrame.n.y(), 1.0f, 1e-6f);
     EXPECT_NEAR(its.shFrame.s.x(), 1.0f, 1e-6f);
     EXPECT_NEAR(its.shFrame.t.z(), 1.0f, 1e-6f);
     // Rotated about the normal by 90 degrees, the tangent turns with the mesh.
     auto rotated = sceneWithMesh(
-        "quad.obj", R"(<transform name="toWorld"><rotate axis="0, 1, 0" angle="90"/></transform>)");
+        "quad.obj", R"(<transform name="toWorld"><rotate axis="0, 1, 0" angle="90"/></transform>)" +
+                        kNormalMap);
     const Intersection r = hit(*rotated, Point3f(0.3f, 1.0f, 0.2f), Vector3f(0, -1, 0));
     EXPECT_NEAR(std::abs(r.shFrame.s.z()), 1.0f, 1e-6f);
     EXPECT_NEAR(r.shFrame.s.dot(its.shFrame.s), 0.0f, 1e-6f);
@@ -68,13 +75,39 @@ TEST(MeshTangents, FollowTheUvDirectionsOnAPlane) {
 // On the sphere u is the longitude (phi from +x towards +z): at (1, 0, 0) dp/du points along +z,
 // and v (up the sphere) along +y.
 TEST(MeshTangents, FollowTheUvDirectionsOnACurvedMesh) {
-    auto scene = sceneWithMesh("sphere.obj");
+    auto scene = sceneWithMesh("sphere.obj", kNormalMap);
     const Intersection its = hit(*scene, Point3f(3.0f, 0.01f, 0.01f), Vector3f(-1, 0, 0));
     EXPECT_GT(its.shFrame.n.x(), 0.99f);
     EXPECT_GT(its.shFrame.s.z(), 0.99f);
     EXPECT_GT(its.shFrame.t.y(), 0.99f);
     EXPECT_NEAR(its.shFrame.s.dot(its.shFrame.n), 0.0f, 1e-5f);
     EXPECT_NEAR(its.shFrame.t.dot(its.shFrame.n), 0.0f, 1e-5f);
+}
+
+// Under a BSDF that is symmetric about the normal (every BSDF but the normal map) the tangent's
+// direction changes no distribution, so a hit gets the frame built from its normal alone, even
+// on a mesh with uvs; the same mesh under a normal map gets the u-aligned one.
+TEST(MeshTangents, OnlyBSDFsThatNeedThemGetFramesAlignedWithU) {
+    for (const char* file : {"quad.obj", "sphere.obj"}) {
+        SCOPED_TRACE(file);
+        const Point3f origin =
+            std::string(file) == "quad.obj" ? Point3f(0.3f, 1.0f, 0.2f) : Point3f(0.1f, 0.2f, 3.0f);
+        const Vector3f direction =
+            std::string(file) == "quad.obj" ? Vector3f(0, -1, 0) : Vector3f(0, 0, -1);
+        for (const std::string& bsdf : {std::string(), std::string(R"(<bsdf type="dielectric"/>)"),
+                                        std::string(R"(<bsdf type="microfacet"/>)")}) {
+            SCOPED_TRACE(bsdf);
+            const Intersection its = hit(*sceneWithMesh(file, bsdf), origin, direction);
+            const Frame fromNormal(its.shFrame.n);
+            EXPECT_EQ(its.shFrame.s, fromNormal.s);
+            EXPECT_EQ(its.shFrame.t, fromNormal.t);
+        }
+        const Intersection mapped = hit(*sceneWithMesh(file, kNormalMap), origin, direction);
+        const Frame fromNormal(mapped.shFrame.n);
+        EXPECT_GT(
+            (mapped.shFrame.s - fromNormal.s).norm() + (mapped.shFrame.t - fromNormal.t).norm(),
+            1e-3f);
+    }
 }
 
 // End to end: a normal map whose normals lean towards +v (green above 0.5) lights a plate more

@@ -180,6 +180,7 @@ class HeterogeneousMedium : public Medium {
     }
 
     bool isVacuum() const override { return !(m_majorant > 0.0f); }
+    float trackingMajorant() const override { return m_homogeneous ? 0.0f : m_majorant; }
     std::optional<GreyHomogeneous> greyHomogeneous() const override {
         return m_homogeneous ? m_homogeneous->greyHomogeneous() : std::nullopt;
     }

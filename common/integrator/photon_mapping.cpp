@@ -1,5 +1,6 @@
 #include "common/integrator/photon_mapping.h"
 
+#include "common/core/system_memory.h"
 #include "common/integrator/direct.h"
 #include "common/photon/density_estimate.h"
 #include "common/photon/radius_schedule.h"
@@ -31,6 +32,26 @@ PhotonMappingIntegrator::PhotonMappingIntegrator(const PropertyList& props,
     if (directLight != "photons" && directLight != "nee")
         props.fail("\"directLight\" must be \"photons\" or \"nee\", got \"%s\"", directLight);
     m_sampleDirectLight = directLight == "nee";
+}
+
+void PhotonMappingIntegrator::checkPassMemory(const PropertyList& props, const std::string& counts,
+                                              uint64_t bytes, const std::string& perPath) {
+    const uint64_t memory = physicalMemoryBytes();
+    if (bytes > memory)
+        props.fail(
+            "%s need at least %s per photon pass (%s), more than this machine's %s of memory",
+            counts, formatBytes(bytes), perPath, formatBytes(memory));
+}
+
+void PhotonMappingIntegrator::checkNeighbourCount(const PropertyList& props, const char* kName,
+                                                  int k) {
+    // A k larger than the photons found is allowed (the estimate then reads the whole search
+    // disk), but k photons must exist to be found, and every query thread keeps k neighbours.
+    const uint64_t bytes = uint64_t(std::max(k, 0)) * sizeof(Photon);
+    const uint64_t memory = physicalMemoryBytes();
+    if (bytes > memory)
+        props.fail("\"%s\" %d asks for more photons than fit in this machine's %s of memory (%s)",
+                   kName, k, formatBytes(memory), formatBytes(bytes));
 }
 
 float PhotonMappingIntegrator::sceneDiagonal(const Scene& scene) {

@@ -72,6 +72,13 @@ class PhotonMappingIntegrator : public Integrator {
     static std::optional<Vector3f> followDeltaChain(const Intersection& its, const Vector3f& wi,
                                                     int depth, Sampler& sampler,
                                                     Color3f& throughput, float& etaScale);
+    // Refuses photon counts whose pass cannot fit in this machine's memory: `bytes` is the least
+    // a pass holds (one stored photon per path), `counts` names the counts and `perPath` how the
+    // bytes were counted, for the message.
+    static void checkPassMemory(const PropertyList& props, const std::string& counts,
+                                uint64_t bytes, const std::string& perPath);
+    // Refuses k nearest neighbours (`kName`, 0: off) whose k photons cannot fit in memory.
+    static void checkNeighbourCount(const PropertyList& props, const char* kName, int k);
     // The surface radius as given or derived from the scene; the diagonal of its bounds (a
     // default for other radii).
     float surfaceRadius() const { return m_surfaceRadius; }

@@ -39,7 +39,14 @@ class PhotonMapper : public PhotonMappingIntegrator {
   public:
     // Next-event estimation by default: at equal time it measured ahead of photon-carried direct
     // light on the Cornell box and the caustic (bench/photon_direct_light.cpp, bench/RESULTS.md).
-    explicit PhotonMapper(const PropertyList& props) : PhotonMappingIntegrator(props, "nee") {}
+    explicit PhotonMapper(const PropertyList& props) : PhotonMappingIntegrator(props, "nee") {
+        checkPassMemory(props, absl::StrFormat("\"photonCount\" %u photon paths", m_photonCount),
+                        m_photonCount * sizeof(Photon),
+                        absl::StrFormat("%zu bytes per path for one stored photon; paths that "
+                                        "bounce store more",
+                                        sizeof(Photon)));
+        checkNeighbourCount(props, "surfaceK", m_surfaceK);
+    }
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay,
                const PassData* passData) const override {

@@ -3,6 +3,7 @@
 // than k), which photons next-event estimation leaves out, the convergence rate of progressive
 // photon mapping, and the convergence of progressive kNN. Its accuracy against closed forms is
 // tested by the Nori-format files tests/statistical/photon_*_ttest.xml.
+#include "common/core/system_memory.h"
 #include "common/integrator/integrator.h"
 #include "common/integrator/photon_mapping_testing.h"
 #include "common/integrator/photon_pass.h"
@@ -53,6 +54,18 @@ TEST_F(PhotonMapperTest, AbsurdParametersAreErrorsNamingFileAndLine) {
     for (const char* mode : {"both", "NEE", ""})
         expectError(std::string("<string name=\"directLight\" value=\"") + mode + "\"/>",
                     "directLight");
+}
+
+// 2^31 - 1 photon paths need at least 72 GiB (one 36-byte photon each), and k = 2^31 - 1 as
+// many photons: refused when the scene loads, where they ended in a bare std::bad_alloc (36 s
+// into tracing, and at once for k). Where a machine holds that much, there is nothing to refuse.
+TEST_F(PhotonMapperTest, CountsBeyondMemoryAreErrorsNamingFileAndLine) {
+    const uint64_t needed = uint64_t(std::numeric_limits<int>::max()) * sizeof(Photon);
+    if (physicalMemoryBytes() >= needed) GTEST_SKIP() << "this machine holds " << needed;
+    expectError(integer("photonCount", std::numeric_limits<int>::max()),
+                "\"photonCount\" 2147483647 photon paths need at least 72.0 GiB per photon pass");
+    expectError(integer("surfaceK", std::numeric_limits<int>::max()),
+                "\"surfaceK\" 2147483647 asks for more photons than fit");
 }
 
 TEST_F(PhotonMapperTest, WithoutProgressiveEveryPassReadsOneMapPerSeed) {

@@ -1,6 +1,7 @@
 #include "common/integrator/vcm_path.h"
 
 #include "common/bsdf/bsdf.h"
+#include "common/core/system_memory.h"
 #include "common/core/warp.h"
 #include "common/emitter/delta_light.h"
 #include "common/integrator/direct.h"
@@ -84,6 +85,10 @@ BidirectionalIntegrator::BidirectionalIntegrator(const PropertyList& props, Kind
     if (props.has("lightPathCount") && m_lightPathCountGiven <= 0)
         props.fail("\"lightPathCount\" (light paths per pass) must be positive, got %d",
                    m_lightPathCountGiven);
+    if (m_lightPathCountGiven > 0) {
+        const std::string problem = lightPathMemoryProblem("\"lightPathCount\"");
+        if (!problem.empty()) props.fail("%s", problem);
+    }
     m_lightTracingOnly = props.getBoolean("lightTracingOnly", false);
     bool connections = true, merging = false;
     if (kind == Kind::Vcm) {
@@ -115,6 +120,21 @@ BidirectionalIntegrator::BidirectionalIntegrator(const PropertyList& props, Kind
     }
 }
 
+std::string BidirectionalIntegrator::lightPathMemoryProblem(const std::string& what) const {
+    const uint64_t count =
+        m_lightPathCountGiven > 0 ? uint64_t(m_lightPathCountGiven) : m_lightPathCount;
+    // Every light path keeps its first vertex (on the light), its start in the vertex array and
+    // its length while the chunks are joined; paths that bounce keep a vertex per bounce more.
+    const uint64_t perPath = sizeof(PathVertex) + 2 * sizeof(uint64_t);
+    const uint64_t bytes = count * perPath;
+    const uint64_t memory = physicalMemoryBytes();
+    if (bytes <= memory) return {};
+    return absl::StrFormat(
+        "%s of %u light paths needs at least %s per pass (%u bytes per path for its vertex on the "
+        "light; each bounce adds %zu), more than this machine's %s of memory",
+        what, count, formatBytes(bytes), perPath, sizeof(PathVertex), formatBytes(memory));
+}
+
 void BidirectionalIntegrator::preprocess(const Scene& scene) {
     const char* name = m_kind == Kind::Vcm ? "vcm" : "bdpt";
     if (scene.camera()->medium())
@@ -136,6 +156,11 @@ void BidirectionalIntegrator::preprocess(const Scene& scene) {
     m_lightPathCount = m_lightPathCountGiven > 0 ? uint64_t(m_lightPathCountGiven)
                                                  : uint64_t(size.x()) * uint64_t(size.y());
     m_strategies.lightPathCount = double(m_lightPathCount);
+    if (m_lightPathCountGiven == 0) {
+        const std::string problem =
+            lightPathMemoryProblem("the default \"lightPathCount\" (the pixel count)");
+        if (!problem.empty()) fail("%s: %s", source(), problem);
+    }
     if (!m_radiusGiven) {
         // The photon mapper's default: 1/500 of the scene's diagonal.
         const float diagonal = scene.bounds().isEmpty() ? 1.0f : scene.bounds().diagonal().norm();

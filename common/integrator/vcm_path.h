@@ -118,6 +118,9 @@ class BidirectionalIntegrator : public Integrator {
                          const PathVertex* path, size_t index,
                          std::vector<std::pair<Point2f, Color3f>>& splats) const;
 
+    // Why the light path count's pass cannot fit in this machine's memory (at least the vertex
+    // on the light per path), beginning with `what`; empty when it can.
+    std::string lightPathMemoryProblem(const std::string& what) const;
     double mergeArea(float radius) const;
     // Li(); when `atSmallerRadius` is given, also the radiance with every merge gathered within
     // r_i / sqrt(2) instead of r_i (normalised by the smaller disk's area) and everything else,

@@ -152,5 +152,56 @@ TEST(VolumePath, MediumPlacementErrorsNameTheLine) {
         4, "more than one inside medium");
 }
 
+// Tracking costs majorant x distance steps per crossing: a medium whose majorant times the
+// diagonal of the box it fills exceeds 2^21 is refused when the scene loads, whether the
+// majorant is declared or follows from the density or a texture's range. These hung before
+// (1 spp at 32x24 unfinished after a minute).
+TEST(VolumePath, TrackingBeyondTheLimitIsRefusedAtLoad) {
+    auto perlin = [](const char* max) {
+        return absl::StrFormat(
+            "<texture type=\"perlin3d\" name=\"sigmaS\"><float name=\"min\" value=\"0\"/>"
+            "<float name=\"max\" value=\"%s\"/></texture>",
+            max);
+    };
+    const std::string medium = "<medium type=\"heterogeneous\" name=\"inside\">";
+    // The sphere of sceneXml: radius 0.7, a bounding box of diagonal 1.4 sqrt(3) = 2.42487.
+    const struct {
+        std::string sphereMedium;
+        const char* majorant;
+    } refused[] = {
+        {medium + "<float name=\"majorant\" value=\"1e9\"/>" + perlin("1") + "</medium>", "1e+09"},
+        {medium + "<float name=\"majorant\" value=\"1e30\"/>" + perlin("1") + "</medium>", "1e+30"},
+        {medium + "<float name=\"density\" value=\"1e30\"/>" + perlin("1") + "</medium>", "1e+30"},
+        {medium + perlin("1e30") + "</medium>", "1e+30"},
+        {medium + "<texture type=\"exponential3d\" name=\"sigmaA\"><color name=\"color0\" "
+                  "value=\"1e30\"/></texture></medium>",
+         "1e+30"},
+        // 10^6 x 2.42 = 2.4e6, just above the limit.
+        {medium + "<float name=\"density\" value=\"1e6\"/>" + perlin("1") + "</medium>", "1e+06"},
+    };
+    for (const auto& c : refused)
+        plugin_testing::expectParseError(
+            "dense.xml", sceneXml("volume_path_mis", "", c.sphereMedium), 21,
+            absl::StrFormat("majorant %s times 2.42487 (the diagonal of the bounding box of ",
+                            c.majorant));
+    plugin_testing::expectParseError(
+        "dense_camera.xml",
+        sceneXml("volume_path_mats",
+                 "<medium type=\"heterogeneous\"><float name=\"majorant\" value=\"1e9\"/>" +
+                     perlin("1") + "</medium>",
+                 ""),
+        6, "(the camera's medium)) is");
+    // Below the limit (8e5 x 2.42 = 1.9e6) it loads; so does any homogeneous medium, whose
+    // closed forms take no steps.
+    EXPECT_NO_THROW(load(
+        "dense_ok.xml",
+        sceneXml("volume_path_mis", "",
+                 medium + "<float name=\"density\" value=\"8e5\"/>" + perlin("1") + "</medium>")));
+    EXPECT_NO_THROW(load("dense_homogeneous.xml",
+                         sceneXml("volume_path_mis", "",
+                                  "<medium type=\"homogeneous\" name=\"inside\"><color "
+                                  "name=\"sigmaS\" value=\"1e30\"/></medium>")));
+}
+
 }  // namespace
 }  // namespace alphorn

@@ -86,6 +86,19 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
         m_volumeK = props.getInteger("volumeK", 0);
         if (props.has("volumeK") && m_volumeK < 2)
             props.fail("\"volumeK\" must be at least 2, got %d", m_volumeK);
+        // A volume photon is the record and the medium it scattered in.
+        const uint64_t volumeBytes = sizeof(Photon) + sizeof(const Medium*);
+        checkPassMemory(
+            props,
+            absl::StrFormat("%u surface and %u volume photon paths (\"photonCount\", "
+                            "\"surfacePhotonCount\", \"volumePhotonCount\")",
+                            m_surfaceCount, m_volumeCount),
+            m_surfaceCount * sizeof(Photon) + m_volumeCount * volumeBytes,
+            absl::StrFormat("%zu bytes per surface and %u per volume photon path for "
+                            "one stored photon; paths that bounce or scatter store more",
+                            sizeof(Photon), volumeBytes));
+        checkNeighbourCount(props, "surfaceK", m_surfaceK);
+        checkNeighbourCount(props, "volumeK", m_volumeK);
     }
 
     void preprocess(const Scene& scene) override {

@@ -4,6 +4,7 @@
 // where density estimation fails (no photons; fewer volume photons than k). Its accuracy is
 // tested by tests/statistical/volumetric_photonmapper_*_ttest.xml.
 #include "common/core/rng.h"
+#include "common/core/system_memory.h"
 #include "common/integrator/integrator.h"
 #include "common/integrator/photon_mapping_testing.h"
 #include "common/integrator/photon_pass.h"
@@ -56,6 +57,27 @@ TEST_F(VolumetricPhotonMapperTest, EachMapHasItsOwnCount) {
     const PhotonPassData& half = passData(halfOwner);
     EXPECT_LT(half.volume.size(), data.volume.size());
     EXPECT_EQ(half.surface.size(), data.surface.size());
+}
+
+// The larger of the two counts is what a pass traces, whatever photonCount says: 2^31 - 1
+// surface photon paths need at least 72 GiB and are refused at load (they grew without limit).
+TEST_F(VolumetricPhotonMapperTest, CountsBeyondMemoryAreErrorsNamingFileAndLine) {
+    const uint64_t needed = uint64_t(std::numeric_limits<int>::max()) * sizeof(Photon);
+    if (physicalMemoryBytes() >= needed) GTEST_SKIP() << "this machine holds " << needed;
+    for (const std::string& params :
+         {integer("photonCount", 2000) +
+              integer("surfacePhotonCount", std::numeric_limits<int>::max()),
+          integer("volumeK", std::numeric_limits<int>::max())}) {
+        try {
+            load(params, furnace(kFog));
+            ADD_FAILURE() << "no error for " << params;
+        } catch (const Error& e) {
+            const std::string message = e.what();
+            EXPECT_NE(message.find("scene.xml:2:"), std::string::npos) << message;
+            EXPECT_NE(message.find("2147483647"), std::string::npos) << message;
+            EXPECT_NE(message.find("memory"), std::string::npos) << message;
+        }
+    }
 }
 
 TEST_F(VolumetricPhotonMapperTest, BothRadiiFollowTheSchedule) {

@@ -22,7 +22,9 @@
 // T = exp(-sigmaC d) * prod (1 - (sigmaT(x) - sigmaC) / max_c(upper_c - sigmaC_c)). The control
 // removes the part of the density that is known everywhere, so a constant density gives the exact
 // transmittance with no random numbers at all (tests/statistical and medium_test.cpp measure
-// the variance of both).
+// the variance of both). Once an estimate is exactly zero the tracking stops; once it falls below
+// kRouletteThreshold, Russian roulette ends it early (unbiased), so the steps after the light is
+// gone cost little however large majorant * distance is.
 //
 // When `sigmaA` is written exactly as `sigmaS` (the same texture element with the same contents,
 // as the stage's fog absorbs where it scatters), one evaluation gives both: the same values bit
@@ -164,10 +166,21 @@ class HeterogeneousMedium : public Medium {
             result *= (1.0f - (sigmaS + sigmaA - m_control) / m_residualMajorant).max(0.0f);
             // Zero stays zero: stopping here changes no expectation.
             if (result.isBlack()) return result;
+            // A negligible estimate is not worth its remaining steps, and factors above 1/2 keep
+            // the smallest subnormal float from ever reaching zero (it rounds back to itself),
+            // which in a dense medium left every shadow ray walking all majorant * tMax steps.
+            // Russian roulette keeps it with probability largest / kRouletteThreshold and
+            // rescales it by the inverse, which leaves its expectation unchanged.
+            const float largest = result.maxCoeff();
+            if (largest < kRouletteThreshold) {
+                if (!(sampler.next1D() * kRouletteThreshold < largest)) return Color3f(0.0f);
+                result *= kRouletteThreshold / largest;
+            }
         }
     }
 
     bool isVacuum() const override { return !(m_majorant > 0.0f); }
+    float trackingMajorant() const override { return m_homogeneous ? 0.0f : m_majorant; }
     std::optional<GreyHomogeneous> greyHomogeneous() const override {
         return m_homogeneous ? m_homogeneous->greyHomogeneous() : std::nullopt;
     }
@@ -186,6 +199,12 @@ class HeterogeneousMedium : public Medium {
     }
 
   private:
+    // Below this largest channel, ratio tracking plays Russian roulette (see transmittance()).
+    // Small enough that the variance the roulette adds (a·(threshold − a) for an estimate a below
+    // it, at most threshold² / 4) is nothing next to ratio tracking's own; estimates that stay
+    // above it draw exactly the numbers they drew before.
+    static constexpr float kRouletteThreshold = 1e-3f;
+
     static bool isNonNegativeFinite(const Color3f& c) { return c.allFinite() && c.minCoeff() >= 0; }
     // The same value everywhere (after the clamp of negative values to zero).
     static bool isConstant(const TexturedColor& slot) {

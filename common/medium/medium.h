@@ -99,6 +99,9 @@ class Medium : public Object {
         Color3f sigmaS;
     };
     virtual std::optional<GreyHomogeneous> greyHomogeneous() const { return std::nullopt; }
+    // The rate per unit length of tracking's tentative collisions (delta and ratio tracking), so
+    // a crossing of length d costs about majorant * d steps; 0 for media with closed forms.
+    virtual float trackingMajorant() const { return 0.0f; }
 
     const PhaseFunction& phase() const { return *m_phase; }
 

@@ -420,6 +420,41 @@ TEST(Medium, DenseMediaStayFiniteAndBounded) {
     }
 }
 
+// Factors of 0.6 (sigma 4e5 under a majorant of 1e6) take the estimate down to the smallest
+// subnormal float within ~200 steps, where 0.6 times it rounds back to itself: without Russian
+// roulette every estimate then walked all ~10^6 steps of majorant * distance.
+TEST(HeterogeneousMedium, RatioTrackingStopsOnceTheEstimateIsNegligible) {
+    auto medium = constantHeterogeneous("4e5", "0", "<float name=\"majorant\" value=\"1e6\"/>");
+    CountingSampler sampler(14);
+    const int n = 1000;
+    for (int i = 0; i < n; ++i) {
+        const uint64_t before = sampler.draws;
+        const Color3f t = medium->transmittance(kRay, 1.0f, sampler);
+        // ~14 steps down to the roulette's threshold, then a few more while the roulette lasts.
+        ASSERT_LT(sampler.draws - before, 200u) << "estimate " << i;
+        ASSERT_TRUE((t == Color3f(0.0f)).all()) << t.toString();
+    }
+}
+
+// The roulette leaves the expectation alone: sigma 7 under a majorant of 14 along d = 1 (factors
+// 1/2, Poisson(14) steps) falls below the threshold in about half the estimates; the mean must
+// still be e^-7.
+TEST(HeterogeneousMedium, RatioTrackingRouletteKeepsTheMean) {
+    auto medium = constantHeterogeneous("7", "0", "<float name=\"majorant\" value=\"14\"/>");
+    CountingSampler sampler(15);
+    Moments m;
+    int rouletted = 0;
+    for (int i = 0; i < 400000; ++i) {
+        const Color3f t = medium->transmittance(kRay, 1.0f, sampler);
+        // Without the roulette every estimate is a power of 1/2 of at least 2^-9 or below 10^-3;
+        // a kept one is lifted to exactly 10^-3.
+        if (t[0] == 1e-3f) ++rouletted;
+        m.add(t);
+    }
+    expectMeans(m, Color3f(float(std::exp(-7.0))), 3, "ratio tracking with roulette");
+    EXPECT_GT(rouletted, 1000) << "the roulette must have kept some estimates";
+}
+
 TEST(Medium, BadParametersNameTheLine) {
     expectParseError(
         "neg_sigma.xml",

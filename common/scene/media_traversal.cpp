@@ -30,6 +30,30 @@ Eigen::AlignedBox3f mediaBounds(const Scene& scene) {
     return Eigen::AlignedBox3f(box.min() - margin, box.max() + margin);
 }
 
+void checkMediaTrackingWork(const Scene& scene) {
+    const Eigen::AlignedBox3f box = mediaBounds(scene);
+    const double boxDiagonal = box.isEmpty() ? 0.0 : double(box.diagonal().norm());
+    auto check = [](const Medium* medium, double extent, const std::string& region) {
+        if (!medium) return;
+        const double collisions = double(medium->trackingMajorant()) * extent;
+        if (collisions > kMaxTrackingCollisions)
+            fail(
+                "%s: majorant %g times %g (the diagonal of %s) is %.3g expected tracking steps "
+                "per crossing, more than the limit of %.0f (2^21): lower the density, the "
+                "textures' values or the declared majorant",
+                medium->source(), medium->trackingMajorant(), extent, region, collisions,
+                kMaxTrackingCollisions);
+    };
+    const std::string sceneBox = "the box around the scene that media end at";
+    check(scene.camera()->medium(), boxDiagonal, sceneBox + " (the camera's medium)");
+    for (const auto& mesh : scene.meshes()) {
+        const Eigen::AlignedBox3f bounds = mesh->bounds();
+        check(mesh->insideMedium(), bounds.isEmpty() ? 0.0 : double(bounds.diagonal().norm()),
+              "the bounding box of " + mesh->source() + ", which it fills");
+        check(mesh->outsideMedium(), boxDiagonal, sceneBox + " (outside " + mesh->source() + ")");
+    }
+}
+
 const Medium* mediumAt(const Scene& scene, const Point3f& p) {
     // An oblique direction, so that the ray does not run along the faces of axis-aligned boxes.
     Ray3f ray(p, Vector3f(0.5376f, 0.6132f, 0.5787f).normalized(), 0.0f, Infinity);

@@ -47,6 +47,20 @@ inline float exitDistance(const Eigen::AlignedBox3f& box, const Ray3f& ray) {
 // (volumePathLi), which also covers thin-lens apertures.
 Eigen::AlignedBox3f mediaBounds(const Scene& scene);
 
+// The most tentative collisions that tracking may expect along the longest line through the box
+// a medium fills (majorant times the box's diagonal): 2^21. The mean step is then at least four
+// float spacings of the distances it is added to (at most 2^-23 of the box's size), so rounding
+// changes the mean step by under 0.3%; beyond 2^23 the average step is smaller than one spacing
+// and tracking stops advancing (t + step == t), and a crossing already costs millions of texture
+// evaluations. Light through such a medium is gone (a transmittance of e^-(2^21)).
+inline constexpr double kMaxTrackingCollisions = double(1 << 21);
+
+// Refuses a medium whose majorant times the size of the region it fills exceeds
+// kMaxTrackingCollisions, naming the medium, its majorant, the size and the limit. The region of
+// a mesh's inside medium is the mesh's bounding box; of an outside or the camera's medium, the
+// box media end at (mediaBounds).
+void checkMediaTrackingWork(const Scene& scene);
+
 // The medium at point `p`, from the first medium boundary a ray from p meets: the medium on the
 // side it arrives from. For lights inside media (photon emission needs the medium a photon
 // starts in) and tests; nullptr (vacuum) when no boundary encloses p. Assumes closed,

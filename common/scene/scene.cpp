@@ -1,4 +1,5 @@
 #include "common/scene/scene.h"
+#include "common/scene/media_traversal.h"
 
 #include <absl/strings/str_format.h>
 
@@ -57,6 +58,7 @@ void Scene::activate() {
             "renders it black\n",
             source());
     m_accel.build(m_meshes);
+    checkMediaTrackingWork(*this);
     m_powerPdf.clear();
     for (const auto& emitter : m_emitters) {
         Color3f power = emitter->power();

@@ -119,6 +119,8 @@ int httpStatusOf(const std::exception& e) {
             case FarmError::Kind::FailedPrecondition:
                 return 409;
             case FarmError::Kind::ResourceExhausted:
+            case FarmError::Kind::Unavailable:
+            case FarmError::Kind::CallerGone:  // no dashboard action has one; nobody reads it
                 return 503;
         }
     }

@@ -46,6 +46,10 @@
 
 namespace alphorn::coordinator {
 
+// The exposures, in stops, of the PNG images the coordinator makes (GetImage, the dashboard's
+// preview); beyond them a PNG is all black or all white, and NaN or infinity mean nothing.
+inline constexpr float kMaxPngExposureStops = 20;
+
 struct CoordinatorOptions {
     std::string stateDirectory;
     double leaseSeconds = 15.0;

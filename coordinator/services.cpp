@@ -10,6 +10,7 @@
 #include "coordinator/log.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -251,6 +252,22 @@ grpc::Status ClientServiceImpl::GetImage(grpc::ServerContext* context,
                                          const v1::GetImageRequest* request,
                                          grpc::ServerWriter<v1::ImageChunk>* writer) {
     return guarded(context, m_token, "GetImage", [&] {
+        // An unknown format would otherwise be served as an EXR and an absurd exposure as a
+        // black or white PNG: a client's mistake must be told, not answered with an image.
+        if (!v1::ImageFormat_IsValid(request->format()))
+            return grpc::Status(
+                grpc::StatusCode::INVALID_ARGUMENT,
+                absl::StrFormat("format %d is not an alphorn.v1.ImageFormat (EXR %d, PNG %d, FILM "
+                                "%d; %d means EXR)",
+                                int(request->format()), int(v1::IMAGE_FORMAT_EXR),
+                                int(v1::IMAGE_FORMAT_PNG), int(v1::IMAGE_FORMAT_FILM),
+                                int(v1::IMAGE_FORMAT_UNSPECIFIED)));
+        if (!(std::abs(request->exposure()) <= kMaxPngExposureStops))
+            return grpc::Status(
+                grpc::StatusCode::INVALID_ARGUMENT,
+                absl::StrFormat("exposure must be a number of stops from -%g to "
+                                "%g (got %g)",
+                                kMaxPngExposureStops, kMaxPngExposureStops, request->exposure()));
         Coordinator::ImageSnapshot snapshot =
             m_coordinator.snapshot(request->job_id(), request->preview());
         const v1::JobStatus& status = snapshot.status;

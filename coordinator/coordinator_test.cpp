@@ -463,6 +463,22 @@ TEST_F(CoordinatorJob, ASecondCoordinatorOnTheStateDirectoryIsRefused) {
     first.stop();
 }
 
+// The lock file only names the holder: removing it (a temporary-file cleaner, an operator
+// "removing a stale lock") must not let a second coordinator run beside the first.
+TEST_F(CoordinatorJob, ASecondCoordinatorIsRefusedAlsoWhenTheLockFileWasRemoved) {
+    Coordinator first(m_options);
+    ASSERT_TRUE(fs::remove(fs::path(m_options.stateDirectory) / "lock"));
+    try {
+        Coordinator second(m_options);
+        FAIL() << "a second coordinator opened the state directory once its lock file was removed";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("in use by another coordinator (its lock file"),
+                  std::string::npos)
+            << e.what();
+    }
+    first.stop();
+}
+
 // A lost (emptied) database must not start afresh: it would hand out job 1 again and delete
 // job 1's film.
 TEST_F(CoordinatorJob, ALostDatabaseIsRefusedAndNoFilmIsDeleted) {

@@ -88,18 +88,24 @@ void note(const std::string& line) {
     std::cerr << line << std::endl;
 }
 
-// A status by which a WatchJob stream ended because the coordinator went away (stopped,
-// restarted, unreachable), not because the request was wrong.
-bool coordinatorWentAway(const grpc::Status& status) {
+// A status by which a call failed because the coordinator went away (stopped, restarted,
+// unreachable, the connection broke: "Socket closed", "Connection reset by peer"), or could not
+// serve it for the moment, not because the request was wrong: asking again may succeed.
+bool callBrokenByCoordinator(const grpc::Status& status) {
     switch (status.error_code()) {
         case grpc::StatusCode::UNAVAILABLE:
         case grpc::StatusCode::CANCELLED:  // the server cancels open calls when it stops
         case grpc::StatusCode::ABORTED:
-        case grpc::StatusCode::OK:  // the stream ended while the job was still running
             return true;
         default:
             return false;
     }
+}
+
+// A status by which a WatchJob stream ended because the coordinator went away, which includes
+// a stream it closed while the job was still running.
+bool coordinatorWentAway(const grpc::Status& status) {
+    return status.ok() || callBrokenByCoordinator(status);
 }
 
 }  // namespace
@@ -218,6 +224,42 @@ void FarmClient::waitForCoordinator(Clock::time_point deadline, bool announce) {
     }
 }
 
+Clock::time_point FarmClient::reconnectDeadline(Clock::time_point lostAt) const {
+    return lostAt + std::chrono::duration_cast<Clock::duration>(
+                        std::chrono::duration<double>(m_reconnectSeconds));
+}
+
+void FarmClient::awaitCoordinatorBack(Clock::time_point lostAt, bool pause) {
+    // A coordinator that is stopping may still look connected for a moment; do not spin.
+    if (pause) std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    waitForCoordinator(reconnectDeadline(lostAt), false);
+}
+
+grpc::Status FarmClient::callRetrying(const std::string& what,
+                                      const std::function<grpc::Status()>& attempt) {
+    std::optional<Clock::time_point> lostAt;
+    for (;;) {
+        const grpc::Status status = attempt();
+        if (!callBrokenByCoordinator(status)) {
+            if (lostAt)
+                note(absl::StrFormat("%s: reconnected to the coordinator after %.1f s", what,
+                                     secondsSince(*lostAt)));
+            return status;
+        }
+        if (!lostAt) {
+            lostAt = Clock::now();
+            note(absl::StrFormat(
+                "%s: the coordinator went away or cannot answer (%s); waiting for it (giving up "
+                "after %.0f s)",
+                what, status.error_message(), m_reconnectSeconds));
+        }
+        // A coordinator that answers but cannot serve (it cannot write its state) keeps the
+        // channel connected: the time limit must hold without waitForCoordinator() too.
+        if (Clock::now() >= reconnectDeadline(*lostAt)) return status;
+        awaitCoordinatorBack(*lostAt, true);
+    }
+}
+
 std::unique_ptr<grpc::ClientContext> FarmClient::context(std::chrono::milliseconds timeout) const {
     return farm::makeContext(m_token, timeout);
 }
@@ -237,51 +279,83 @@ std::string submitterName() {
     return (user.empty() ? "uid" + std::to_string(::getuid()) : user) + "@" + host;
 }
 
+grpc::Status FarmClient::uploadMissingBlobs(const farm::Bundle& bundle, bool quiet,
+                                            std::string& failedCall) {
+    failedCall = "HasBlobs";
+    v1::HasBlobsRequest has;
+    for (const auto& file : bundle.files) has.add_sha256(file.sha256);
+    v1::HasBlobsResponse missing;
+    if (grpc::Status status = m_stub->HasBlobs(context().get(), has, &missing); !status.ok())
+        return status;
+    std::set<std::string> toUpload(missing.missing().begin(), missing.missing().end());
+    if (toUpload.empty()) return grpc::Status::OK;
+
+    failedCall = "PutBlobs";
+    auto ctx = context(std::chrono::milliseconds(3600 * 1000));
+    v1::PutBlobsResponse response;
+    auto writer = m_stub->PutBlobs(ctx.get(), &response);
+    uint64_t bytes = 0;
+    for (const auto& file : bundle.files) {
+        if (!toUpload.erase(file.sha256)) continue;  // two paths with the same content go once
+        std::ifstream in(file.sourcePath, std::ios::binary);
+        if (!in) fail("%s: cannot open", file.sourcePath);
+        const bool sent = farm::sendChunks(
+            in,
+            [&](std::string_view data, bool, bool last) {
+                v1::BlobChunk chunk;
+                chunk.set_sha256(file.sha256);
+                chunk.set_data(std::string(data));
+                chunk.set_last(last);
+                bytes += data.size();
+                return writer->Write(chunk);
+            },
+            farm::kChunkBytes);
+        if (!sent) break;  // the coordinator ended the stream: Finish() says why
+    }
+    writer->WritesDone();
+    grpc::Status status = writer->Finish();
+    if (status.ok() && !quiet)
+        std::cerr << absl::StrFormat("uploaded %u blobs (%.1f KiB)\n", response.stored(),
+                                     bytes / 1024.0);
+    return status;
+}
+
 v1::JobStatus FarmClient::submit(const std::string& scenePath, const v1::JobSettings& settings,
                                  bool quiet) {
     const farm::Bundle bundle = farm::gatherBundle(scenePath);
 
-    v1::HasBlobsRequest has;
-    for (const auto& file : bundle.files) has.add_sha256(file.sha256);
-    v1::HasBlobsResponse missing;
-    check(m_stub->HasBlobs(context().get(), has, &missing), "HasBlobs");
-    std::set<std::string> toUpload(missing.missing().begin(), missing.missing().end());
-
-    if (!toUpload.empty()) {
-        auto ctx = context(std::chrono::milliseconds(3600 * 1000));
-        v1::PutBlobsResponse response;
-        auto writer = m_stub->PutBlobs(ctx.get(), &response);
-        uint64_t bytes = 0;
-        for (const auto& file : bundle.files) {
-            if (!toUpload.erase(file.sha256)) continue;  // two paths with the same content go once
-            std::ifstream in(file.sourcePath, std::ios::binary);
-            if (!in) fail("%s: cannot open", file.sourcePath);
-            const bool sent = farm::sendChunks(
-                in,
-                [&](std::string_view data, bool, bool last) {
-                    v1::BlobChunk chunk;
-                    chunk.set_sha256(file.sha256);
-                    chunk.set_data(std::string(data));
-                    chunk.set_last(last);
-                    bytes += data.size();
-                    return writer->Write(chunk);
-                },
-                farm::kChunkBytes);
-            if (!sent) break;  // the coordinator ended the stream: Finish() says why
-        }
-        writer->WritesDone();
-        check(writer->Finish(), "PutBlobs");
-        if (!quiet)
-            std::cerr << absl::StrFormat("uploaded %u blobs (%.1f KiB)\n", response.stored(),
-                                         bytes / 1024.0);
-    }
+    // Uploads are idempotent (blobs are named by their content): after a broken call the
+    // client asks again which blobs are missing and sends those.
+    std::string failedCall;
+    check(callRetrying("uploading the scene",
+                       [&] { return uploadMissingBlobs(bundle, quiet, failedCall); }),
+          failedCall.c_str());
 
     v1::SubmitJobRequest request;
     *request.mutable_bundle() = farm::toProto(bundle);
     *request.mutable_settings() = settings;
     if (request.settings().owner().empty()) request.mutable_settings()->set_owner(submitterName());
+    // The same id on every attempt: a SubmitJob whose answer was lost (the coordinator
+    // restarted after creating the job) gives that job when asked again, not a second one.
+    request.set_submission_id(farm::generateToken().substr(0, 32));
     v1::SubmitJobResponse response;
-    check(m_stub->SubmitJob(context().get(), request, &response), "SubmitJob");
+    const auto submitOnce = [&] {
+        response.Clear();
+        return m_stub->SubmitJob(context().get(), request, &response);
+    };
+    // Given up on a coordinator that went away: it may have created the job before it did.
+    const char* unknownOutcome =
+        "; the job may have been created before the coordinator went away: `alphorn status` "
+        "lists the jobs";
+    grpc::Status submitted;
+    try {
+        submitted = callRetrying("submitting the job", submitOnce);
+    } catch (const Error& e) {
+        fail("%s%s", e.what(), unknownOutcome);
+    }
+    if (callBrokenByCoordinator(submitted))
+        fail("SubmitJob: %s%s", submitted.error_message(), unknownOutcome);
+    check(submitted, "SubmitJob");
     return response.status();
 }
 
@@ -341,12 +415,8 @@ v1::JobStatus FarmClient::watch(uint64_t jobId, bool quiet) {
                 jobId, finished.ok() ? "closed by the coordinator" : finished.error_message(),
                 m_reconnectSeconds));
         }
-        // A coordinator that is stopping may still look connected for a moment; do not spin.
-        if (!received) std::this_thread::sleep_for(std::chrono::milliseconds(200));
         try {
-            waitForCoordinator(lostAt + std::chrono::duration_cast<Clock::duration>(
-                                            std::chrono::duration<double>(m_reconnectSeconds)),
-                               false);
+            awaitCoordinatorBack(lostAt, !received);
         } catch (const Error& e) {
             fail("job %u: %s; the job itself goes on: `alphorn watch %u` follows it again", jobId,
                  e.what(), jobId);

@@ -4,10 +4,13 @@
 
 #include "alphorn/v1/client_service.grpc.pb.h"
 #include "cli/commands.h"
+#include "common/farm/bundle.h"
 #include "common/farm/convert.h"
 
 #include <CLI/CLI.hpp>
 
+#include <chrono>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -73,6 +76,24 @@ class FarmClient {
     // Blocks until the channel is connected; throws Error as the constructor says. With
     // `announce`, says on stderr that it waits when that takes more than two seconds.
     void waitForCoordinator(std::chrono::steady_clock::time_point deadline, bool announce);
+    // When a client that lost the coordinator at `lostAt` gives up: --reconnect-seconds later.
+    std::chrono::steady_clock::time_point reconnectDeadline(
+        std::chrono::steady_clock::time_point lostAt) const;
+    // After a call broke because the coordinator went away at `lostAt`: waits for it to accept
+    // connections again (after a short pause, with `pause`), until reconnectDeadline(lostAt);
+    // throws Error then. What watch() and callRetrying() share.
+    void awaitCoordinatorBack(std::chrono::steady_clock::time_point lostAt, bool pause);
+    // Runs `attempt` (one try of a call that may be repeated without harm) until it returns a
+    // status other than one of a coordinator that went away or cannot answer for the moment
+    // (UNAVAILABLE, CANCELLED, ABORTED), which it returns; after such a status it says once on
+    // stderr, naming `what`, that it waits, and waits as watch() does. Gives up, returning the
+    // last status or throwing Error, --reconnect-seconds after the first failure.
+    grpc::Status callRetrying(const std::string& what,
+                              const std::function<grpc::Status()>& attempt);
+    // Asks which of the bundle's blobs the coordinator lacks and uploads those; on failure
+    // returns the status and sets `failedCall` to the call's name.
+    grpc::Status uploadMissingBlobs(const farm::Bundle& bundle, bool quiet,
+                                    std::string& failedCall);
 
     std::string m_address;
     bool m_tls = false;

@@ -11,8 +11,10 @@
 #include "common/scene/scene.h"
 #include "coordinator/farm_error.h"
 
+#include <absl/strings/ascii.h>
 #include <absl/strings/str_replace.h>
 
+#include <algorithm>
 #include <filesystem>
 
 namespace alphorn::coordinator {
@@ -39,6 +41,20 @@ uint32_t defaultPassesPerUnit(const v1::JobSettings& settings, const Vector2i& s
 }
 
 }  // namespace
+
+void checkSubmissionId(const std::string& submissionId) {
+    constexpr size_t kMaxSubmissionIdChars = 64;
+    const bool wellFormed =
+        submissionId.size() <= kMaxSubmissionIdChars &&
+        std::all_of(submissionId.begin(), submissionId.end(), [](char c) {
+            return absl::ascii_isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
+        });
+    if (!wellFormed)
+        throw FarmError(Kind::InvalidArgument,
+                        absl::StrFormat("the submission id must be at most %u characters of "
+                                        "0-9, A-Z, a-z, _ and - (got %u bytes)",
+                                        kMaxSubmissionIdChars, submissionId.size()));
+}
 
 AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs,
                      const AdmissionLimits& limits, const std::string& stagingParent) {

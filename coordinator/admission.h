@@ -33,6 +33,11 @@ struct AdmittedJob {
     std::string stagingDirectory;
 };
 
+// Throws FarmError (InvalidArgument) unless `submissionId` (SubmitJobRequest.submission_id) is
+// empty or at most 64 characters of [0-9A-Za-z_-]: it is stored, logged and compared, and a
+// client sends a random hex string.
+void checkSubmissionId(const std::string& submissionId);
+
 // Checks and completes a submission; materializes its bundle under `stagingParent`. Throws
 // FarmError (InvalidArgument, FailedPrecondition or ResourceExhausted) and then leaves nothing
 // behind.

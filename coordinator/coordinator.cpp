@@ -193,7 +193,35 @@ void Coordinator::touchBlobs(const std::vector<std::string>& sha256s) {
 
 // ---- jobs ------------------------------------------------------------------------------------
 
-v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
+v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request,
+                                  const std::function<bool()>& callerGone) {
+    checkSubmissionId(request.submission_id());
+    const SubmissionKey submission{request.settings().owner(), request.submission_id()};
+    if (!request.submission_id().empty()) {
+        std::lock_guard lock(m_mutex);
+        if (const Job* earlier = submittedJobLocked(submission)) {
+            logInfo("job.submitted_again",
+                    {field("job", earlier->id), field("submission", request.submission_id())});
+            return statusLocked(*earlier);
+        }
+        if (!m_submissionsInProgress.insert(submission).second)
+            throw FarmError(Kind::Unavailable,
+                            absl::StrFormat("submission %s is still being admitted by an earlier "
+                                            "call; ask again to get its job",
+                                            request.submission_id()));
+    }
+    // Whatever the outcome, the submission is no longer in progress once this call returns:
+    // by then its job is listed, or it was refused and may be sent again.
+    struct InProgress {
+        Coordinator& coordinator;
+        const SubmissionKey& submission;
+        ~InProgress() {
+            if (submission.second.empty()) return;
+            std::lock_guard lock(coordinator.m_mutex);
+            coordinator.m_submissionsInProgress.erase(submission);
+        }
+    } inProgress{*this, submission};
+
     const AdmissionLimits limits{m_options.maxBundleBytes, m_options.maxImagePixels,
                                  m_options.maxPasses, m_options.defaultTileSize,
                                  m_options.defaultPassesPerUnit};
@@ -205,6 +233,14 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
         fs::remove_all(staging);
         throw FarmError(kind, message);
     };
+    // Loading a large scene can outlast the client's deadline. A job created for a caller that
+    // is gone would run with nobody told its id, while the caller reports a failure and is
+    // likely to submit again; a client that is still there asks again with the same submission
+    // id and gets the job created then.
+    if (callerGone && callerGone())
+        refuse(Kind::CallerGone,
+               "the client went away (deadline passed or connection lost) while the scene "
+               "loaded; no job was created");
     const uint64_t memory =
         jobMemoryBytes(grid.width(), grid.height(), grid.unitCount(), grid.tiles().smallerRadius());
     {
@@ -228,11 +264,12 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     auto job = std::make_unique<Job>();
     job->description = std::move(admitted.description);
     job->createdAt = m_clock->wallSeconds();
+    job->submissionId = request.submission_id();
     try {
         if (m_durableWriteHooks.before) m_durableWriteHooks.before();
-        job->id =
-            m_store.addJob(job->description, grid.width(), grid.height(), admitted.filterBorder,
-                           job->createdAt, admitted.smallerRadius == SmallerRadius::Kept);
+        job->id = m_store.addJob(
+            job->description, grid.width(), grid.height(), admitted.filterBorder, job->createdAt,
+            admitted.smallerRadius == SmallerRadius::Kept, request.submission_id());
         if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     } catch (const Error& e) {
         release();
@@ -275,10 +312,11 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
                                 grid.width(), grid.height(), settings.passes(), settings.seed(),
                                 grid.unitCount(), settings.passes_per_unit(), settings.tile_size(),
                                 settings.priority()));
-    logInfo("job.submitted", {field("job", id), field("name", settings.name()),
-                              field("size", absl::StrFormat("%dx%d", grid.width(), grid.height())),
-                              field("passes", settings.passes()), field("units", grid.unitCount()),
-                              field("priority", settings.priority())});
+    logInfo("job.submitted",
+            {field("job", id), field("name", settings.name()),
+             field("size", absl::StrFormat("%dx%d", grid.width(), grid.height())),
+             field("passes", settings.passes()), field("units", grid.unitCount()),
+             field("priority", settings.priority()), field("submission", job->submissionId)});
     // The submission consumes the touches of its blobs (the uses that led to it): a touch
     // from now on means another submission is under way (see Retention::deletedJobBlobs).
     for (const v1::BundleFile& file : job->description.bundle().files())
@@ -289,6 +327,16 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request) {
     lock.unlock();
     saveChangedEventLogs(id);
     return status;
+}
+
+const Coordinator::Job* Coordinator::submittedJobLocked(const SubmissionKey& submission) const {
+    // A scan, not an index: it runs once per submission, and the jobs listed are those of the
+    // keep time, which another index would have to follow through deletes and retention.
+    for (const auto& [id, job] : m_jobs)
+        if (!job->submissionId.empty() && job->submissionId == submission.second &&
+            job->description.settings().owner() == submission.first)
+            return job.get();
+    return nullptr;
 }
 
 Coordinator::Job& Coordinator::jobLocked(uint64_t jobId) {

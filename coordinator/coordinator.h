@@ -46,6 +46,10 @@
 
 namespace alphorn::coordinator {
 
+// The exposures, in stops, of the PNG images the coordinator makes (GetImage, the dashboard's
+// preview); beyond them a PNG is all black or all white, and NaN or infinity mean nothing.
+inline constexpr float kMaxPngExposureStops = 20;
+
 struct CoordinatorOptions {
     std::string stateDirectory;
     double leaseSeconds = 15.0;
@@ -99,7 +103,13 @@ class Coordinator {
     const CoordinatorOptions& options() const { return m_options; }
 
     // Client side.
-    v1::JobStatus submit(const v1::SubmitJobRequest& request);
+    // Admits and queues a job. A request whose submission_id and owner are those of a listed
+    // job returns that job's status and creates nothing (a client asking again after losing the
+    // answer); one whose id an earlier call is still admitting is refused with Unavailable.
+    // `callerGone`, asked once the scene has loaded and before anything is stored, refuses the
+    // job with CallerGone when it says nobody waits for the answer any more.
+    v1::JobStatus submit(const v1::SubmitJobRequest& request,
+                         const std::function<bool()>& callerGone = {});
     std::vector<v1::JobStatus> listJobs(uint64_t jobId);  // throws NotFound for an unknown id
     v1::JobStatus cancel(uint64_t jobId);
     std::vector<v1::WorkerInfo> listWorkers(bool includeDead);
@@ -194,6 +204,7 @@ class Coordinator {
         bool completing = false;  // every unit merged, final checkpoint being written
         double createdAt = 0;
         double finishedAt = 0;               // wall clock when the job ended; 0 while running
+        std::string submissionId;            // SubmitJobRequest.submission_id; may be empty
         std::optional<double> firstMergeAt;  // monotonic
         uint64_t samplesMergedThisRun = 0;
         uint64_t passDataBuilds = 0;  // see JobStatus.pass_data_builds
@@ -223,8 +234,13 @@ class Coordinator {
     // the background thread (or stop()) tries again.
     void finishJob(Job& job);
 
+    // A submission as its client names it: the owner and the submission id.
+    using SubmissionKey = std::pair<std::string, std::string>;
+
     // The following require m_mutex.
     Job& jobLocked(uint64_t jobId);
+    // The listed job the submission created, if any.
+    const Job* submittedJobLocked(const SubmissionKey& submission) const;
     v1::JobStatus statusLocked(const Job& job) const;
     // Stores a failed attempt counted by the scheduler; fails the job of a poison unit.
     void recordFailureLocked(Job& job, const LeaseScheduler::Failure& failure,
@@ -266,7 +282,10 @@ class Coordinator {
     std::unique_ptr<WorkerRegistry> m_workers;  // made after m_scheduler, which it informs
     std::unordered_map<std::string, double> m_blobsTouchedAt;  // sha256 -> wall clock
     uint64_t m_memoryInUse = 0;                                // sum of running jobs' memoryBytes
-    double m_nextCheckpoint = 0, m_nextPrune = 0;              // monotonic
+    // Submissions with an id being admitted right now (loading their scene): a second call
+    // with the same id must not admit the job again.
+    std::set<SubmissionKey> m_submissionsInProgress;
+    double m_nextCheckpoint = 0, m_nextPrune = 0;  // monotonic
     bool m_stopping = false, m_stopped = false;
     std::thread m_background;
     std::condition_variable m_backgroundWake;

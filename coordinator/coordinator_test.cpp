@@ -371,6 +371,84 @@ TEST_F(CoordinatorJob, BrokenSceneIsRefusedWithFileAndLine) {
     EXPECT_TRUE(coordinator.listJobs(0).empty());
 }
 
+// A client that lost SubmitJob's answer (the coordinator restarted, the connection broke) sends
+// the same request again: the submission id makes that give the job the first call created,
+// also after a restart, and never a second job.
+TEST_F(CoordinatorJob, ASubmissionSentAgainGivesTheSameJobOnce) {
+    const std::string id = "0123456789abcdef0123456789abcdef";
+    uint64_t first = 0;
+    {
+        Coordinator coordinator(m_options);
+        v1::SubmitJobRequest request = upload(coordinator);
+        request.mutable_settings()->set_owner("ana@render-1");
+        request.set_submission_id(id);
+        first = coordinator.submit(request).job_id();
+        EXPECT_EQ(coordinator.submit(request).job_id(), first);
+        EXPECT_EQ(coordinator.listJobs(0).size(), 1u);
+
+        v1::SubmitJobRequest another = request;
+        another.set_submission_id("fedcba9876543210fedcba9876543210");
+        const uint64_t second = coordinator.submit(another).job_id();
+        EXPECT_NE(second, first);
+        v1::SubmitJobRequest otherOwner = request;
+        otherOwner.mutable_settings()->set_owner("ben@render-2");
+        const uint64_t third = coordinator.submit(otherOwner).job_id();
+        EXPECT_NE(third, first);
+        EXPECT_NE(third, second);
+        v1::SubmitJobRequest withoutId = request;
+        withoutId.clear_submission_id();
+        coordinator.submit(withoutId);
+        coordinator.submit(withoutId);
+        EXPECT_EQ(coordinator.listJobs(0).size(), 5u) << "requests without an id were merged";
+        coordinator.stop();
+    }
+    Coordinator restarted(m_options);
+    v1::SubmitJobRequest request = upload(restarted);
+    request.mutable_settings()->set_owner("ana@render-1");
+    request.set_submission_id(id);
+    EXPECT_EQ(restarted.submit(request).job_id(), first);
+    EXPECT_EQ(restarted.listJobs(0).size(), 5u);
+    restarted.stop();
+}
+
+TEST_F(CoordinatorJob, AMalformedSubmissionIdIsRefused) {
+    Coordinator coordinator(m_options);
+    v1::SubmitJobRequest request = upload(coordinator);
+    for (const std::string& id : {std::string(65, 'a'), std::string("a b"), std::string("a\nb")}) {
+        request.set_submission_id(id);
+        try {
+            coordinator.submit(request);
+            FAIL() << "submission id \"" << id << "\" was accepted";
+        } catch (const FarmError& e) {
+            EXPECT_EQ(e.kind, FarmError::Kind::InvalidArgument);
+            EXPECT_NE(std::string(e.what()).find("submission id"), std::string::npos) << e.what();
+        }
+    }
+    EXPECT_TRUE(coordinator.listJobs(0).empty());
+    coordinator.stop();
+}
+
+// A caller gone by the time the scene has loaded gets no job; its retry, with the same id,
+// creates it then.
+TEST_F(CoordinatorJob, NoJobIsCreatedForACallerThatIsGone) {
+    Coordinator coordinator(m_options);
+    v1::SubmitJobRequest request = upload(coordinator);
+    request.set_submission_id("0123456789abcdef0123456789abcdef");
+    try {
+        coordinator.submit(request, [] { return true; });
+        FAIL() << "a job was created for a caller that had gone";
+    } catch (const FarmError& e) {
+        EXPECT_EQ(e.kind, FarmError::Kind::CallerGone);
+    }
+    EXPECT_TRUE(coordinator.listJobs(0).empty());
+    EXPECT_TRUE(fs::is_empty(fs::path(m_options.stateDirectory) / "tmp"))
+        << "the refused job's bundle stayed behind";
+    const uint64_t job = coordinator.submit(request, [] { return false; }).job_id();
+    EXPECT_EQ(coordinator.submit(request).job_id(), job);
+    EXPECT_EQ(coordinator.listJobs(0).size(), 1u);
+    coordinator.stop();
+}
+
 TEST_F(CoordinatorJob, ASecondCoordinatorOnTheStateDirectoryIsRefused) {
     Coordinator first(m_options);
     try {
@@ -379,6 +457,22 @@ TEST_F(CoordinatorJob, ASecondCoordinatorOnTheStateDirectoryIsRefused) {
     } catch (const Error& e) {
         EXPECT_NE(std::string(e.what()).find("in use by another coordinator (pid " +
                                              std::to_string(::getpid())),
+                  std::string::npos)
+            << e.what();
+    }
+    first.stop();
+}
+
+// The lock file only names the holder: removing it (a temporary-file cleaner, an operator
+// "removing a stale lock") must not let a second coordinator run beside the first.
+TEST_F(CoordinatorJob, ASecondCoordinatorIsRefusedAlsoWhenTheLockFileWasRemoved) {
+    Coordinator first(m_options);
+    ASSERT_TRUE(fs::remove(fs::path(m_options.stateDirectory) / "lock"));
+    try {
+        Coordinator second(m_options);
+        FAIL() << "a second coordinator opened the state directory once its lock file was removed";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("in use by another coordinator (its lock file"),
                   std::string::npos)
             << e.what();
     }

@@ -119,6 +119,8 @@ int httpStatusOf(const std::exception& e) {
             case FarmError::Kind::FailedPrecondition:
                 return 409;
             case FarmError::Kind::ResourceExhausted:
+            case FarmError::Kind::Unavailable:
+            case FarmError::Kind::CallerGone:  // no dashboard action has one; nobody reads it
                 return 503;
         }
     }
@@ -379,9 +381,11 @@ void Dashboard::previewPng(const httplib::Request& request, httplib::Response& r
         const std::string text = request.get_param_value("exposure");
         const auto result = std::from_chars(text.data(), text.data() + text.size(), exposure);
         if (result.ec != std::errc() || result.ptr != text.data() + text.size() ||
-            !(std::abs(exposure) <= 20))
-            throw FarmError(FarmError::Kind::InvalidArgument,
-                            "the parameter exposure must be a number from -20 to 20");
+            !(std::abs(exposure) <= kMaxPngExposureStops))
+            throw FarmError(
+                FarmError::Kind::InvalidArgument,
+                absl::StrFormat("the parameter exposure must be a number from -%g to %g",
+                                kMaxPngExposureStops, kMaxPngExposureStops));
     }
     // As GetImage does for `alphorn fetch --preview`: the same PNG writer, the same bytes.
     Coordinator::ImageSnapshot snapshot = m_coordinator.snapshot(jobId, true);

@@ -52,6 +52,9 @@ constexpr AddedColumn kAddedColumns[] = {
     {"jobs", "paused", "INTEGER NOT NULL DEFAULT 0"},
     {"workers", "draining", "INTEGER NOT NULL DEFAULT 0"},
     {"jobs", "smaller_radius", "INTEGER NOT NULL DEFAULT 0"},
+    // The client's id of the submission that created the job (SubmitJobRequest.submission_id);
+    // empty for jobs submitted without one, and for those stored before it existed.
+    {"jobs", "submission_id", "TEXT NOT NULL DEFAULT ''"},
 };
 
 using Value = StateDatabase::Value;
@@ -96,12 +99,14 @@ std::string JobStore::leaseKey() {
 }
 
 uint64_t JobStore::addJob(const v1::JobDescription& description, int width, int height,
-                          int filterBorder, double createdAt, bool smallerRadius) {
+                          int filterBorder, double createdAt, bool smallerRadius,
+                          const std::string& submissionId) {
     const auto rows = m_db.query(
         "INSERT INTO jobs(description, state, width, height, filter_border, created_at, "
-        "smaller_radius) VALUES(?, ?, ?, ?, ?, ?, ?) RETURNING id",
+        "smaller_radius, submission_id) VALUES(?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
         {description.SerializeAsString(), int64_t(v1::JOB_STATE_RUNNING), int64_t(width),
-         int64_t(height), int64_t(filterBorder), createdAt, int64_t(smallerRadius ? 1 : 0)});
+         int64_t(height), int64_t(filterBorder), createdAt, int64_t(smallerRadius ? 1 : 0),
+         submissionId});
     const uint64_t id = uint64_t(StateDatabase::integer(rows.at(0).at(0)));
     // The stored description carries its id too, so workers told of a resumed job load that
     // job's scene and no other. (No transaction: the connection is shared between threads.)
@@ -125,7 +130,7 @@ std::vector<JobRow> JobStore::jobs() {
     std::vector<JobRow> result;
     for (const auto& row : m_db.query("SELECT id, description, state, error, width, height, "
                                       "filter_border, created_at, finished_at, paused, "
-                                      "smaller_radius FROM jobs")) {
+                                      "smaller_radius, submission_id FROM jobs")) {
         JobRow job;
         job.id = uint64_t(StateDatabase::integer(row[0]));
         v1::JobDescription description;
@@ -143,6 +148,7 @@ std::vector<JobRow> JobStore::jobs() {
         job.finishedAt = real(row[8]);
         job.paused = StateDatabase::integer(row[9]) != 0;
         job.smallerRadius = StateDatabase::integer(row[10]) != 0;
+        job.submissionId = StateDatabase::text(row[11]);
         result.push_back(std::move(job));
     }
     return result;

@@ -29,6 +29,8 @@ struct JobRow {
     double createdAt = 0;
     double finishedAt = 0;  // 0 while running
     bool paused = false;    // a client paused it (no new leases)
+    // The client's SubmitJobRequest.submission_id; empty when it sent none.
+    std::string submissionId;
 };
 
 struct UnitAttemptsRow {
@@ -57,7 +59,8 @@ class JobStore {
 
     // Stores a new running job and returns its id; the stored description carries the id.
     uint64_t addJob(const v1::JobDescription& description, int width, int height, int filterBorder,
-                    double createdAt, bool smallerRadius = false);
+                    double createdAt, bool smallerRadius = false,
+                    const std::string& submissionId = "");
     std::vector<JobRow> jobs();
     // Records that a job ended (or, with JOB_STATE_RUNNING and finishedAt 0, runs again).
     void setJobState(uint64_t jobId, v1::JobState state, const std::string& error,

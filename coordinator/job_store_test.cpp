@@ -36,7 +36,7 @@ TEST_F(JobStoreTest, JobsRoundTripUnderTheirOwnIds) {
         JobStore store(path());
         first = store.addJob(description, 40, 30, 2, 1000.5);
         description.mutable_settings()->set_name("second");
-        second = store.addJob(description, 8, 6, 0, 1001, true);
+        second = store.addJob(description, 8, 6, 0, 1001, true, "5f0c2a");
         store.setJobState(first, v1::JOB_STATE_FAILED, "it broke", 2000.25);
         store.setUnitAttempts(second, 3, 2, "lease expired");
         store.setUnitAttempts(second, 3, 3, "out of memory");
@@ -55,6 +55,8 @@ TEST_F(JobStoreTest, JobsRoundTripUnderTheirOwnIds) {
     EXPECT_EQ(jobs[0].filterBorder, 2);
     EXPECT_FALSE(jobs[0].smallerRadius);
     EXPECT_TRUE(jobs[1].smallerRadius);
+    EXPECT_EQ(jobs[0].submissionId, "");
+    EXPECT_EQ(jobs[1].submissionId, "5f0c2a");
     EXPECT_EQ(jobs[0].createdAt, 1000.5);
     EXPECT_EQ(jobs[0].finishedAt, 2000.25);
     EXPECT_EQ(jobs[1].description->job_id(), second);
@@ -167,7 +169,8 @@ TEST_F(JobStoreTest, ControlsAndEventLogsAreStoredAndGoWithTheirJob) {
     EXPECT_EQ(store.jobLog(job).events_size(), 0) << "the log outlived its job";
 }
 
-// A database of a version without the control columns gets them, with nothing paused or drained.
+// A database of a version without the control columns gets them, with nothing paused or drained
+// and no submission id.
 TEST_F(JobStoreTest, AnEarlierDatabaseGetsTheControlColumns) {
     {
         StateDatabase db(path());
@@ -189,6 +192,7 @@ TEST_F(JobStoreTest, AnEarlierDatabaseGetsTheControlColumns) {
     }
     JobStore store(path());
     EXPECT_FALSE(store.jobs().at(0).paused);
+    EXPECT_EQ(store.jobs().at(0).submissionId, "");
     EXPECT_FALSE(store.workers().at(0).draining);
     JobStore again(path());  // the columns are added once
     EXPECT_EQ(again.jobs().size(), 1u);

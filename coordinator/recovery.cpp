@@ -24,6 +24,7 @@ void Coordinator::resume() {
         job->error = row.error;
         job->createdAt = row.createdAt;
         job->finishedAt = row.finishedAt;
+        job->submissionId = row.submissionId;
         try {
             job->events = EventLog(m_store.jobLog(job->id));
         } catch (const StorageError& e) {

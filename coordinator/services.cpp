@@ -10,8 +10,11 @@
 #include "coordinator/log.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 namespace alphorn::coordinator {
 
@@ -34,6 +37,10 @@ grpc::Status toStatus(const std::exception& e) {
                 return {grpc::StatusCode::FAILED_PRECONDITION, e.what()};
             case FarmError::Kind::ResourceExhausted:
                 return {grpc::StatusCode::RESOURCE_EXHAUSTED, e.what()};
+            case FarmError::Kind::Unavailable:
+                return {grpc::StatusCode::UNAVAILABLE, e.what()};
+            case FarmError::Kind::CallerGone:
+                return {grpc::StatusCode::CANCELLED, e.what()};
         }
     }
     if (dynamic_cast<const StorageError*>(&e)) {
@@ -75,6 +82,22 @@ bool streamBytes(grpc::ServerWriter<Chunk>* writer, const std::string& bytes,
             return writer->Write(chunk);
         },
         farm::kChunkBytes);
+}
+
+// Test hook (documented in docs/operations.md): ALPHORN_TEST_SUBMIT_ANSWER_DELAY_MS=N makes
+// SubmitJob wait up to N ms between creating the job and answering, or until the call is
+// cancelled (the server stopping), so integration tests can restart the coordinator while the
+// answer of a created job is due. Nothing else sets it.
+void delayAnswerIfTestHookSet(grpc::ServerContext& context, uint64_t jobId) {
+    const char* delay = std::getenv("ALPHORN_TEST_SUBMIT_ANSWER_DELAY_MS");
+    if (!delay) return;
+    logWarning("test_hook.submit_answer_delay",
+               {field("hook", "ALPHORN_TEST_SUBMIT_ANSWER_DELAY_MS"), field("job", jobId),
+                field("ms", delay)});
+    const auto until =
+        std::chrono::steady_clock::now() + std::chrono::milliseconds(std::atoi(delay));
+    while (std::chrono::steady_clock::now() < until && !context.IsCancelled())
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
 }
 
 }  // namespace
@@ -151,7 +174,9 @@ grpc::Status ClientServiceImpl::SubmitJob(grpc::ServerContext* context,
                                           v1::SubmitJobResponse* response) {
     return guarded(context, m_token, "SubmitJob", [&] {
         try {
-            *response->mutable_status() = m_coordinator.submit(*request);
+            *response->mutable_status() =
+                m_coordinator.submit(*request, [context] { return context->IsCancelled(); });
+            delayAnswerIfTestHookSet(*context, response->status().job_id());
         } catch (const FarmError& e) {
             logWarning("job.refused", {field("reason", e.what())});
             throw;
@@ -227,6 +252,22 @@ grpc::Status ClientServiceImpl::GetImage(grpc::ServerContext* context,
                                          const v1::GetImageRequest* request,
                                          grpc::ServerWriter<v1::ImageChunk>* writer) {
     return guarded(context, m_token, "GetImage", [&] {
+        // An unknown format would otherwise be served as an EXR and an absurd exposure as a
+        // black or white PNG: a client's mistake must be told, not answered with an image.
+        if (!v1::ImageFormat_IsValid(request->format()))
+            return grpc::Status(
+                grpc::StatusCode::INVALID_ARGUMENT,
+                absl::StrFormat("format %d is not an alphorn.v1.ImageFormat (EXR %d, PNG %d, FILM "
+                                "%d; %d means EXR)",
+                                int(request->format()), int(v1::IMAGE_FORMAT_EXR),
+                                int(v1::IMAGE_FORMAT_PNG), int(v1::IMAGE_FORMAT_FILM),
+                                int(v1::IMAGE_FORMAT_UNSPECIFIED)));
+        if (!(std::abs(request->exposure()) <= kMaxPngExposureStops))
+            return grpc::Status(
+                grpc::StatusCode::INVALID_ARGUMENT,
+                absl::StrFormat("exposure must be a number of stops from -%g to "
+                                "%g (got %g)",
+                                kMaxPngExposureStops, kMaxPngExposureStops, request->exposure()));
         Coordinator::ImageSnapshot snapshot =
             m_coordinator.snapshot(request->job_id(), request->preview());
         const v1::JobStatus& status = snapshot.status;

@@ -15,27 +15,57 @@
 
 namespace alphorn::coordinator {
 
+namespace {
+
+// Who holds the directory, as its lock file says; for the refusal's message.
+std::string describeHolder(const std::string& lockPath) {
+    const int fd = ::open(lockPath.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return absl::StrFormat("its lock file %s, which names it, was removed", lockPath);
+    char holder[256] = {};
+    const ssize_t n = ::pread(fd, holder, sizeof holder - 1, 0);
+    ::close(fd);
+    return n > 0 ? std::string(absl::StripAsciiWhitespace(holder)) : std::string("unknown");
+}
+
+[[noreturn]] void refuseInUse(const std::string& directory, const std::string& lockPath) {
+    fail(
+        "the state directory %s is in use by another coordinator (%s); stop that one first or "
+        "give this one another --state-dir",
+        directory, describeHolder(lockPath));
+}
+
+}  // namespace
+
 StateDirectoryLock::StateDirectoryLock(const std::string& directory) {
     std::filesystem::create_directories(directory);
     const std::string path = directory + "/lock";
-    m_fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-    if (m_fd < 0)
-        fail("%s: cannot open the state directory's lock: %s", path, std::strerror(errno));
-    if (::flock(m_fd, LOCK_EX | LOCK_NB) != 0) {
+    m_directoryFd = ::open(directory.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (m_directoryFd < 0)
+        fail("%s: cannot open the state directory to lock it: %s", directory, std::strerror(errno));
+    if (::flock(m_directoryFd, LOCK_EX | LOCK_NB) != 0) {
         const int error = errno;
-        char holder[256] = {};
-        const ssize_t n = ::pread(m_fd, holder, sizeof holder - 1, 0);
-        ::close(m_fd);
-        m_fd = -1;
+        ::close(m_directoryFd);
+        m_directoryFd = -1;
+        if (error != EWOULDBLOCK)
+            fail("%s: cannot lock the state directory: %s", directory, std::strerror(error));
+        refuseInUse(directory, path);
+    }
+    // The directory is ours; a coordinator of an earlier version locks only the file.
+    m_fileFd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (m_fileFd < 0) {
+        const int error = errno;
+        ::close(m_directoryFd);
+        fail("%s: cannot open the state directory's lock: %s", path, std::strerror(error));
+    }
+    if (::flock(m_fileFd, LOCK_EX | LOCK_NB) != 0) {
+        const int error = errno;
+        ::close(m_fileFd);
+        ::close(m_directoryFd);
         if (error != EWOULDBLOCK)
             fail("%s: cannot lock the state directory: %s", path, std::strerror(error));
-        fail(
-            "the state directory %s is in use by another coordinator (%s); stop that one first "
-            "or give this one another --state-dir",
-            directory,
-            n > 0 ? std::string(absl::StripAsciiWhitespace(holder)) : std::string("unknown"));
+        refuseInUse(directory, path);
     }
-    // Who holds it, for the message above (informational: the flock is what excludes).
+    // Who holds it, for the message above (informational: the flocks are what exclude).
     char host[128] = {};
     ::gethostname(host, sizeof host - 1);
     const std::time_t now = std::time(nullptr);
@@ -43,13 +73,14 @@ StateDirectoryLock::StateDirectoryLock(const std::string& directory) {
     std::strftime(started, sizeof started, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
     const std::string text =
         absl::StrFormat("pid %d on %s, started %s\n", ::getpid(), host, started);
-    if (::ftruncate(m_fd, 0) != 0 || ::pwrite(m_fd, text.data(), text.size(), 0) < 0) {
+    if (::ftruncate(m_fileFd, 0) != 0 || ::pwrite(m_fileFd, text.data(), text.size(), 0) < 0) {
         // The lock is held all the same; only the holder's description is missing.
     }
 }
 
 StateDirectoryLock::~StateDirectoryLock() {
-    if (m_fd >= 0) ::close(m_fd);
+    if (m_fileFd >= 0) ::close(m_fileFd);
+    if (m_directoryFd >= 0) ::close(m_directoryFd);
 }
 
 }  // namespace alphorn::coordinator

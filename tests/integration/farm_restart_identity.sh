@@ -4,7 +4,7 @@
 # byte-identical to its own `alphorn render` (a resumed job once reached the worker as "job 0",
 # and the worker rendered the second job with the first job's scene). Also: a second
 # coordinator on the same state directory or port is refused, and WatchJob of job 0 is a clear
-# error.
+# error. Removing the state directory's lock file changes none of that.
 source "$(dirname "$0")/farm_lib.sh"
 
 start_coordinator 127.0.0.1:0 --checkpoint-interval 0.3 --lease-seconds 3
@@ -27,6 +27,15 @@ fi
 grep -q "in use by another coordinator (pid $COORDINATOR_PID" "$WORK/second.log" ||
     fail "the refusal does not name the holder: $(cat "$WORK/second.log")"
 pass "a second coordinator on the same state directory is refused: $(cat "$WORK/second.log")"
+# ... also when its lock file, which only names the holder, was removed.
+rm "$WORK/state/lock"
+if timeout 10 "$COORDINATOR" --listen 127.0.0.1:0 --state-dir "$WORK/state" --client-token-file "$WORK/client.token" \
+    --worker-token-file "$WORK/worker.token" >"$WORK/second_unlocked.log" 2>&1; then
+    fail "a second coordinator started on the same state directory once its lock file was removed"
+fi
+grep -q "in use by another coordinator" "$WORK/second_unlocked.log" ||
+    fail "unclear refusal after the lock file was removed: $(cat "$WORK/second_unlocked.log")"
+pass "... also with the lock file removed: $(cat "$WORK/second_unlocked.log")"
 # ... and one on the same port (another state directory) cannot listen.
 if timeout 10 "$COORDINATOR" --listen "127.0.0.1:$PORT" --state-dir "$WORK/state-other" \
     --client-token-file "$WORK/client.token" --worker-token-file "$WORK/worker.token" >"$WORK/port.log" 2>&1; then

@@ -1,5 +1,6 @@
 #include "common/render/unit.h"
 
+#include "common/core/error.h"
 #include "common/scene/scene.h"
 
 #include <tbb/blocked_range.h>
@@ -67,8 +68,21 @@ std::vector<std::shared_ptr<const PassData>> preparePasses(const Scene& scene, u
                                                            uint32_t begin, uint32_t end) {
     std::vector<std::shared_ptr<const PassData>> data;
     data.reserve(end - begin);
-    for (uint32_t pass = begin; pass < end; ++pass)
-        data.push_back(scene.integrator()->preparePass(scene, seed, pass));
+    for (uint32_t pass = begin; pass < end; ++pass) {
+        try {
+            data.push_back(scene.integrator()->preparePass(scene, seed, pass));
+        } catch (const std::bad_alloc&) {
+            // The scene's photon and light-path counts were checked against the machine's memory
+            // when it loaded, but for one photon or vertex per path only: longer paths, other
+            // processes or an address-space limit can still exhaust it here. The passes already
+            // built are freed first, so that the message can be made.
+            data.clear();
+            fail(
+                "%s: out of memory building pass %u's photons or light paths: lower the "
+                "integrator's photon or path counts, or render where more memory is free",
+                scene.integrator()->source(), pass);
+        }
+    }
     return data;
 }
 

@@ -1,5 +1,6 @@
 #include "common/scene/parser.h"
 
+#include "common/core/decimal_number.h"
 #include "common/scene/scene.h"
 
 #include <absl/strings/ascii.h>
@@ -228,10 +229,14 @@ class Parser {
 
     float toFloat(const pugi::xml_node& node, const std::string& text) {
         std::string s(absl::StripAsciiWhitespace(text));
-        char* end = nullptr;
-        float v = std::strtof(s.c_str(), &end);
-        if (s.empty() || *end != '\0') failAt(node, "could not parse the number \"%s\"", text);
-        return v;
+        // inf and nan are numbers here, so that the plugins' range checks refuse them naming
+        // the parameter.
+        const bool hasSign = !s.empty() && (s[0] == '-' || s[0] == '+');
+        const std::string word = absl::AsciiStrToLower(absl::string_view(s).substr(hasSign));
+        const bool infinityOrNan = word == "inf" || word == "infinity" || word == "nan";
+        if (!infinityOrNan && !isDecimalNumber(s))
+            failAt(node, "could not parse the number \"%s\" (numbers are decimal)", text);
+        return std::strtof(s.c_str(), nullptr);
     }
 
     int toInt(const pugi::xml_node& node, const std::string& text) {

@@ -175,6 +175,34 @@ TEST_F(ParserTest, ErrorsNameFileLineAndProblem) {
                 {"bad.xml:4:", "filename"});
 }
 
+// Numbers are decimal: strtof alone read fov="0x10" as 16 degrees. inf and nan still parse, so
+// that the plugin's own check refuses them naming the parameter.
+TEST_F(ParserTest, NumbersAreDecimalOnly) {
+    auto camera = [](const std::string& property) {
+        return "<scene>\n<integrator type=\"normals\"/>\n<camera type=\"perspective\">\n"
+               "<integer name=\"width\" value=\"8\"/><integer name=\"height\" value=\"6\"/>\n" +
+               property + "\n</camera>\n</scene>\n";
+    };
+    for (const std::string number : {"0x10", "0x1p4", "-0X1.8P+3", "nan(123)", "1e", "1e+", ".",
+                                     "e5", "1.2.3", "1,5", "0x", "infinit", "--1", "-+inf", "1e5f"})
+        expectError(
+            camera("<float name=\"fov\" value=\"" + number + "\"/>"),
+            {"bad.xml:5:", "could not parse the number \"" + number + "\"", "numbers are decimal"});
+    expectError(sceneWith("<sampler type=\"independent\">\n<integer name=\"sampleCount\" "
+                          "value=\"0x10\"/></sampler>"),
+                {"bad.xml:5:", "could not parse the integer \"0x10\""});
+    expectError(camera("<float name=\"fov\" value=\"inf\"/>"),
+                {"bad.xml:3:", "fov must be in [0.001, 180) degrees, got inf"});
+    expectError(camera("<float name=\"fov\" value=\"-NaN\"/>"),
+                {"bad.xml:3:", "fov must be in [0.001, 180) degrees, got"});
+    expectError(camera("<point name=\"x\" value=\"0x1, 0, 0\"/>"),
+                {"bad.xml:5:", "could not parse the number \"0x1\""});
+    for (const std::string number : {"16", "+16", "16.", ".5e2", "1.6E1", "160e-1", " 16 "})
+        EXPECT_NO_THROW(parseSceneFile(
+            write("ok.xml", camera("<float name=\"fov\" value=\"" + number + "\"/>"))))
+            << number;
+}
+
 TEST_F(ParserTest, MisspeltNamesAreRefusedWithTheNearestKnownOne) {
     auto camera = [](const std::string& property) {
         return "<scene>\n<integrator type=\"normals\"/>\n<camera type=\"perspective\">\n"

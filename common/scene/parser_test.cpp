@@ -203,6 +203,27 @@ TEST_F(ParserTest, NumbersAreDecimalOnly) {
             << number;
 }
 
+// XML that is not well-formed: pugixml accepts an attribute written twice (the loader used the
+// first) and elements after the root (the loader ignored them).
+TEST_F(ParserTest, RepeatedAttributesAndSecondRootElementsAreRefused) {
+    expectError(
+        "<scene>\n<integrator type=\"normals\"/>\n<camera type=\"perspective\">\n"
+        "  <float name=\"fov\" value=\"45\" value=\"50\"/>\n</camera>\n</scene>\n",
+        {"bad.xml:4:4", "malformed XML: <float> has the attribute \"value\" more than once"});
+    expectError(sceneWith("<mesh type=\"obj\" type=\"obj\"/>"),
+                {"bad.xml:4:2", "<mesh> has the attribute \"type\" more than once"});
+    expectError(sceneWith("") + "<scene>\n</scene>\n",
+                {"bad.xml:6:2", "malformed XML: a second root element <scene> after <scene>"});
+    expectError(sceneWith("") + "<mesh type=\"obj\"/>\n",
+                {"bad.xml:6:2", "a second root element <mesh>"});
+    expectError(sceneWith("") + "stray text\n",
+                {"bad.xml:5:", "text \"stray text\" outside the root element <scene>"});
+    expectError("text first\n" + sceneWith(""),
+                {"bad.xml:1:1", "text \"text first\" outside the root element"});
+    // Comments, processing instructions and whitespace after the root are well-formed.
+    EXPECT_NO_THROW(parseSceneFile(write("ok.xml", sceneWith("") + "<!-- end -->\n<?pi x?>\n\n")));
+}
+
 TEST_F(ParserTest, MisspeltNamesAreRefusedWithTheNearestKnownOne) {
     auto camera = [](const std::string& property) {
         return "<scene>\n<integrator type=\"normals\"/>\n<camera type=\"perspective\">\n"

@@ -231,6 +231,28 @@ TEST(WavefrontOBJ, FuzzCrashVertexBeyondEmbreeRangeIsRefused) {
     }
 }
 
+// A mesh takes an area emitter only: a point, spot or projector light nested in it was
+// accepted and marked the mesh as emitting.
+TEST(Mesh, PointLikeLightsCannotBeNestedInAMesh) {
+    for (const std::string emitter :
+         {R"(<emitter type="point"><color name="power" value="1"/></emitter>)",
+          R"(<emitter type="spotlight"><color name="power" value="1"/></emitter>)"}) {
+        try {
+            sceneWithMesh("quad.obj", "\n" + emitter);
+            ADD_FAILURE() << "accepted " << emitter;
+        } catch (const Error& e) {
+            const std::string message = e.what();
+            EXPECT_NE(message.find(":4:2 (emitter type="), std::string::npos) << message;
+            EXPECT_NE(message.find("a point-like light (point, spotlight, projector) cannot be "
+                                   "nested in a <mesh>"),
+                      std::string::npos)
+                << message;
+        }
+    }
+    EXPECT_NO_THROW(sceneWithMesh(
+        "quad.obj", R"(<emitter type="area"><color name="radiance" value="1"/></emitter>)"));
+}
+
 // Loads `obj` as a mesh; returns the error message, or "" when it loads.
 std::string objLoadError(const std::string& obj) {
     const std::filesystem::path path = std::filesystem::temp_directory_path() /

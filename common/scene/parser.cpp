@@ -307,7 +307,9 @@ class Parser {
         std::vector<float> v = toFloats(node, text);
         if (v.size() != 3) failAt(node, "expected 3 values, got \"%s\"", text);
         const Vector3f vector(v[0], v[1], v[2]);
-        if (!(vector.cwiseAbs().maxCoeff() <= kMaxTransformEntry))
+        // allFinite first: Eigen's maxCoeff can pass over a NaN that is not the first
+        // component ("2,nan,6" passed, and lookat reported its origin and target coinciding).
+        if (!vector.allFinite() || !(vector.cwiseAbs().maxCoeff() <= kMaxTransformEntry))
             failAt(node, "\"%s\" must have finite components within +-%g", text,
                    kMaxTransformEntry);
         return vector;

@@ -106,6 +106,21 @@ TEST_F(ParserTest, PositionsAndTransformsBeyondTheSceneBoundAreRefused) {
         {"bad.xml:2:29", "the transform \"toWorld\" has an entry beyond 1e+15"});
 }
 
+// Eigen's maxCoeff passed over a NaN after the first component: lookat origin="2,nan,6" was
+// reported as the origin and target coinciding, and such a point or vector was accepted.
+TEST_F(ParserTest, NaNInAnyComponentOfAPointIsRefused) {
+    for (const std::string origin : {"nan,2,6", "2,nan,6", "2,6,nan", "2,6,-inf"})
+        expectError(
+            "<scene>\n<camera type=\"perspective\"><transform name=\"toWorld\">\n"
+            "<lookat origin=\"" +
+                origin + "\" target=\"0,0,0\" up=\"0,1,0\"/></transform></camera></scene>",
+            {"bad.xml:3:2", "\"" + origin + "\" must have finite components"});
+    expectError(
+        "<scene>\n<emitter type=\"point\">\n<point name=\"position\" value=\"0, 0, nan\"/>"
+        "</emitter></scene>",
+        {"bad.xml:3:2", "\"0, 0, nan\" must have finite components"});
+}
+
 TEST_F(ParserTest, LoadsMinimalSceneWithNoriDefaults) {
     std::string path = write(
         "ok.xml",

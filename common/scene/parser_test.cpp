@@ -121,6 +121,43 @@ TEST_F(ParserTest, NaNInAnyComponentOfAPointIsRefused) {
         {"bad.xml:3:2", "\"0, 0, nan\" must have finite components"});
 }
 
+// A file name the system cannot resolve (a symbolic link loop, a name of 5000 characters) is
+// reported at the element that names it, for textures as for meshes, also on the farm (inside a
+// confinement root), never as a bare filesystem error.
+TEST_F(ParserTest, UnresolvableFileNamesNameTheElement) {
+    std::filesystem::create_symlink("loop_b.png", m_dir / "loop_a.png");
+    std::filesystem::create_symlink("loop_a.png", m_dir / "loop_b.png");
+    const std::string longName = std::string(5000, 'a') + ".png";
+    for (const std::string& name : {std::string("loop_a.png"), longName}) {
+        const std::string texture =
+            "<scene>\n<mesh type=\"obj\"><string name=\"filename\" value=\"triangle.obj\"/>\n"
+            "<bsdf type=\"diffuse\">\n<texture type=\"bitmap\" name=\"albedo\"><string "
+            "name=\"filename\" value=\"" +
+            name + "\"/></texture></bsdf></mesh></scene>";
+        const std::string mesh = "<scene>\n<mesh type=\"obj\"><string name=\"filename\" value=\"" +
+                                 name + "\"/></mesh></scene>";
+        for (const auto& [text, where] : {std::pair(texture, std::string("bad.xml:4:2 (texture "
+                                                                         "type=\"bitmap\")")),
+                                          std::pair(mesh, std::string("bad.xml:2:2 (mesh "
+                                                                      "type=\"obj\")"))}) {
+            const std::string path = write("bad.xml", text);
+            for (const bool confined : {false, true}) {
+                FileReferencePolicy policy;
+                if (confined) policy.confinementRoot = m_dir.string();
+                try {
+                    parseSceneFile(path, policy);
+                    ADD_FAILURE() << "no error for " << text.substr(0, 200);
+                } catch (const Error& e) {
+                    const std::string message = e.what();
+                    EXPECT_NE(message.find(where), std::string::npos) << message.substr(0, 300);
+                    EXPECT_EQ(message.find("filesystem error"), std::string::npos)
+                        << message.substr(0, 300);
+                }
+            }
+        }
+    }
+}
+
 TEST_F(ParserTest, LoadsMinimalSceneWithNoriDefaults) {
     std::string path = write(
         "ok.xml",

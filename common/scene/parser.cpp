@@ -133,9 +133,9 @@ class Parser {
         return out;
     }
 
-    // XML allows one root element and no text outside it; pugixml reads a fragment (below) and
-    // the loader would silently ignore a second <scene> (or the part of a scene after a stray
-    // </scene>).
+    // XML allows one root element and no text outside it. The file is read as a fragment, which
+    // keeps both; the loader would otherwise silently ignore a second <scene> (or the part of a
+    // scene after a stray </scene>).
     void failIfNotOneRootElement(const pugi::xml_document& doc, const pugi::xml_node& root) const {
         for (const pugi::xml_node& node : doc.children()) {
             if (node.type() == pugi::node_element && node != root)

@@ -20,6 +20,19 @@ class Diffuse : public BSDF {
         BSDF::addChild(child, name);
     }
 
+    // A textured albedo is held to what a plain one is: texture bounds are exact, so a texture
+    // that can go negative or infinite is refused here, at its element, rather than showing up
+    // as negative samples while rendering.
+    void activate() override {
+        if (!m_albedo.isTextured()) return;
+        const Color3f lower = m_albedo.lowerBound(), upper = m_albedo.upperBound();
+        if (!(lower.minCoeff() >= 0.0f) || !upper.allFinite())
+            m_albedo.texture()->fail(
+                "the diffuse \"albedo\" must stay finite and >= 0 in every channel; this "
+                "texture ranges from %s to %s",
+                lower.toString(), upper.toString());
+    }
+
     Color3f eval(const BSDFQueryRecord& rec) const override {
         if (rec.measure != Measure::SolidAngle || Frame::cosTheta(rec.wi) <= 0.0f ||
             Frame::cosTheta(rec.wo) <= 0.0f)

@@ -31,6 +31,17 @@ class PinholeProjection {
         m_nearClip = props.getPositiveFloat("nearClip", 1e-4f);
         m_farClip = props.getPositiveFloat("farClip", 1e4f);
         if (!(m_farClip > m_nearClip)) props.fail("farClip must be greater than nearClip");
+        // A ray's direction is its point on the near plane, normalised: below this the point's
+        // squared length is no normal float (below 3.7e-23 it is 0, the direction stays that
+        // tiny point, and the image is black).
+        if (m_nearClip < kMinNearClip)
+            props.fail("nearClip %g is too small (at least %g)", m_nearClip, kMinNearClip);
+        // The projection matrix holds nearClip * farClip; beyond the float range it is infinite
+        // and every ray NaN (a black image).
+        if (!std::isfinite(m_nearClip * m_farClip))
+            props.fail(
+                "nearClip * farClip (%g * %g) exceeds the float range; give a smaller farClip",
+                m_nearClip, m_farClip);
         m_outputSize = outputSize;
     }
 
@@ -113,6 +124,7 @@ class PinholeProjection {
     float fov() const { return m_fov; }
 
   private:
+    static constexpr float kMinNearClip = 1e-18f;
     Transform m_sampleToCamera, m_cameraToWorld, m_worldToCamera;
     float m_cot = 1.0f, m_aspect = 1.0f, m_rasterPerPlaneArea = 1.0f;
     Vector2i m_outputSize{1280, 720};

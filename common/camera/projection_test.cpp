@@ -72,5 +72,32 @@ TEST(CameraProjection, ALensIsRefused) {
     EXPECT_NE(scaled->lightTracingRefusal().find("toWorld"), std::string::npos);
 }
 
+// nearClip 1e-30 rendered black: the near-plane point a ray's direction is normalised from had a
+// squared length of 0 in float. nearClip * farClip beyond the float range did the same through
+// the projection matrix. At the bounds the rays are still unit length.
+TEST(CameraProjection, ClipDistancesThatBreakTheRaysAreRefused) {
+    for (const std::string type : {"perspective", "physical"}) {
+        plugin_testing::expectParseError("near.xml", "<camera type=\"" + type + R"(">
+  <float name="nearClip" value="1e-30"/></camera>)",
+                                         1, "nearClip 1e-30 is too small (at least 1e-18)");
+        plugin_testing::expectParseError("near_times_far.xml", "<camera type=\"" + type + R"(">
+  <float name="nearClip" value="10"/><float name="farClip" value="1e38"/></camera>)",
+                                         1,
+                                         "nearClip * farClip (10 * 1e+38) exceeds the float range");
+        for (const char* clips :
+             {R"(<float name="nearClip" value="1e-18"/>)",
+              R"(<float name="nearClip" value="1e-18"/><float name="farClip" value="3e38"/>)"}) {
+            const auto camera = makeCamera(type, clips);
+            for (const Point2f& raster : {Point2f(0, 0), Point2f(32, 24), Point2f(64, 48)}) {
+                Ray3f ray;
+                camera->sampleRay(ray, raster, Point2f(0.5f, 0.5f));
+                EXPECT_NEAR(ray.d.norm(), 1.0f, 1e-5f) << type << " " << clips;
+                EXPECT_TRUE(std::isfinite(ray.mint) && std::isfinite(ray.maxt) &&
+                            ray.mint < ray.maxt);
+            }
+        }
+    }
+}
+
 }  // namespace
 }  // namespace alphorn

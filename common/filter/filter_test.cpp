@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 namespace alphorn {
 namespace {
@@ -35,6 +36,64 @@ TEST(GaussianFilter, WeightsAreExactlyTheShiftedGaussian) {
             EXPECT_EQ(filter->eval(radius), 0.0f);
         }
     }
+}
+
+// Creating the filter of `type` with the float parameters given must fail, naming where it was
+// written and every fragment.
+void expectRefused(const std::string& type,
+                   std::initializer_list<std::pair<const char*, float>> floats,
+                   std::initializer_list<std::string> fragments) {
+    PropertyList props("scene.xml:7:5 (rfilter type=\"" + type + "\")");
+    for (const auto& [name, value] : floats) props.setFloat(name, value);
+    try {
+        ObjectFactory::create(ObjectKind::Filter, type, props);
+        ADD_FAILURE() << type << " accepted parameters that should be refused";
+    } catch (const Error& e) {
+        const std::string message = e.what();
+        EXPECT_NE(message.find("scene.xml:7:5 (rfilter type=\"" + type + "\")"), std::string::npos)
+            << message;
+        for (const std::string& fragment : fragments)
+            EXPECT_NE(message.find(fragment), std::string::npos)
+                << "\"" << message << "\" lacks \"" << fragment << "\"";
+    }
+}
+
+// B or C of NaN made every Mitchell weight NaN (an all-1 image), 1e30 made a black one.
+TEST(MitchellFilter, RefusesBAndCOutsideZeroToOne) {
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    const float inf = std::numeric_limits<float>::infinity();
+    expectRefused("mitchell", {{"B", nan}}, {"\"B\" must be in [0, 1], got nan"});
+    expectRefused("mitchell", {{"C", inf}}, {"\"C\" must be in [0, 1], got inf"});
+    expectRefused("mitchell", {{"B", 1e30f}}, {"\"B\" must be in [0, 1], got 1e+30"});
+    expectRefused("mitchell", {{"C", -0.25f}}, {"\"C\" must be in [0, 1], got -0.25"});
+    expectRefused("mitchell", {{"B", 1.5f}}, {"\"B\" must be in [0, 1], got 1.5"});
+    PropertyList catmullRom("test");
+    catmullRom.setFloat("B", 0.0f);
+    catmullRom.setFloat("C", 0.5f);
+    EXPECT_NO_THROW(ObjectFactory::create(ObjectKind::Filter, "mitchell", catmullRom));
+}
+
+// A radius or a gaussian's stddev of 1e-30 reached no pixel centre from almost any sample (a black
+// image); a stddev of 1e30 made every gaussian weight 0.
+TEST(Filters, RefuseRadiiAndWidthsThatLoseTheSamples) {
+    for (const std::string type : {"box", "gaussian", "mitchell"}) {
+        expectRefused(type, {{"radius", 1e-30f}},
+                      {"filter radius 1e-30 is too small (at least 0.5 pixels"});
+        expectRefused(type, {{"radius", 0.49f}}, {"filter radius 0.49 is too small"});
+        PropertyList halfPixel("test");
+        halfPixel.setFloat("radius", 0.5f);
+        if (type == "gaussian") halfPixel.setFloat("stddev", 0.5f);
+        EXPECT_NO_THROW(ObjectFactory::create(ObjectKind::Filter, type, halfPixel)) << type;
+    }
+    expectRefused("gaussian", {{"stddev", 1e-30f}},
+                  {"\"stddev\" 1e-30 is too small (at least 0.1 pixels)"});
+    expectRefused("gaussian", {{"stddev", 0.09f}}, {"\"stddev\" 0.09 is too small"});
+    expectRefused("gaussian", {{"stddev", 1e30f}},
+                  {"\"stddev\" 1e+30 is too large (at most 10 times the radius 2)"});
+    expectRefused("gaussian", {{"radius", 0.5f}, {"stddev", 5.01f}},
+                  {"\"stddev\" 5.01 is too large (at most 10 times the radius 0.5)"});
+    EXPECT_NO_THROW(makeGaussian(0.5f, 0.1f));
+    EXPECT_NO_THROW(makeGaussian(0.5f, 5.0f));
 }
 
 }  // namespace

@@ -8,8 +8,8 @@ class MitchellNetravaliFilter : public ReconstructionFilter {
   public:
     explicit MitchellNetravaliFilter(const PropertyList& props) {
         m_radius = validatedRadius(props, 2.0f);
-        m_B = props.getFloat("B", 1.0f / 3.0f);
-        m_C = props.getFloat("C", 1.0f / 3.0f);
+        m_B = parameter(props, "B");
+        m_C = parameter(props, "C");
     }
     float eval(float x) const override {
         x = std::abs(2.0f * x / m_radius);
@@ -26,6 +26,15 @@ class MitchellNetravaliFilter : public ReconstructionFilter {
     }
 
   private:
+    // B and C span the family Mitchell and Netravali studied, [0, 1] each (B = 1, C = 0 is the
+    // cubic B-spline, B = 0, C = 1/2 Catmull-Rom). Without the check B = NaN rendered an
+    // all-1 image and 1e30 a black one.
+    static float parameter(const PropertyList& props, const char* name) {
+        const float value = props.getFloat(name, 1.0f / 3.0f);
+        if (!(value >= 0.0f && value <= 1.0f))
+            props.fail("\"%s\" must be in [0, 1], got %g", name, value);
+        return value;
+    }
     float m_B, m_C;
 };
 

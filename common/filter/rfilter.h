@@ -12,6 +12,9 @@ class ReconstructionFilter : public Object {
     float radius() const { return m_radius; }
     virtual float eval(float x) const = 0;
 
+    static constexpr float kMinRadius = 0.5f;
+    static constexpr float kMaxRadius = 7.0f;
+
   protected:
     static float validatedRadius(const PropertyList& props, float defaultRadius);
     float m_radius = 0.5f;

@@ -30,6 +30,13 @@ void Mesh::addChild(const std::shared_ptr<Object>& child, const std::string& nam
             m_bsdf = std::static_pointer_cast<BSDF>(child);
             break;
         case ObjectKind::Emitter:
+            // A point, spot or projector light is a light of its own: nested, it would mark the
+            // mesh as emitting (its surface would be looked up as this light) without any
+            // surface emitting.
+            if (std::static_pointer_cast<Emitter>(child)->isDelta())
+                child->fail(
+                    "a point-like light (point, spotlight, projector) cannot be nested in a "
+                    "<mesh>, which only takes an area emitter; give it in the <scene>");
             if (m_emitter) fail("the mesh has more than one emitter");
             m_emitter = std::static_pointer_cast<Emitter>(child);
             m_emitter->setMesh(this);

@@ -118,8 +118,15 @@ inline Normal3f Intersection::geometricNormal() const {
     return mesh->geometricNormal(triangle);
 }
 
-// The OBJ loader's text filter: empties tinyobjloader's "vw" (skin weight) lines, which Alphorn
-// ignores and tinyobjloader parses unsafely (obj_mesh.cpp).
-std::string withoutSkinWeightLines(std::string text);
+// The OBJ loader's pass over the text before tinyobjloader reads it (obj_mesh.cpp): refuses,
+// with "`name`:LINE: problem", the first line tinyobjloader would misread without a word (a
+// number that is not a finite decimal one, a wrong count of numbers, a face index that is not
+// an integer within int's range, a NUL byte), and empties the "vw" (skin weight) lines, which
+// Alphorn ignores and tinyobjloader parses unsafely.
+struct ObjText {
+    std::string text;      // the file as tinyobjloader is to read it
+    size_t faceCount = 0;  // its "f" lines
+};
+ObjText preparedForTinyObj(std::string text, const std::string& name);
 
 }  // namespace alphorn

@@ -1,36 +1,159 @@
 // <mesh type="obj">: a Wavefront OBJ file (Nori's WavefrontOBJ). Polygons are triangulated;
 // a vertex is unique per (position, uv, normal) triple; missing normals give flat shading.
+#include "common/core/decimal_number.h"
 #include "common/core/transform.h"
 #include "common/scene/mesh.h"
 
+#include <absl/strings/str_format.h>
+
 #include <tiny_obj_loader.h>
 
+#include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <tuple>
 
 namespace alphorn {
 
-// tinyobjloader's "vw" extension (skin weights) converts joint ids from float to int unchecked,
-// which is undefined behaviour for ids beyond the int range. Alphorn has no use for skin
-// weights, so those lines are emptied before parsing (their line breaks stay, so tinyobjloader's
-// line numbers still match the file). Lines end at \n, \r or \r\n, as tinyobjloader reads them.
-std::string withoutSkinWeightLines(std::string text) {
-    size_t lineStart = 0;
-    while (lineStart < text.size()) {
-        size_t lineEnd = text.find_first_of("\r\n", lineStart);
-        if (lineEnd == std::string::npos) lineEnd = text.size();
-        const size_t token = text.find_first_not_of(" \t", lineStart);
-        if (token < lineEnd && lineEnd - token > 2 && text[token] == 'v' &&
-            text[token + 1] == 'w' && (text[token + 2] == ' ' || text[token + 2] == '\t')) {
-            text.erase(lineStart, lineEnd - lineStart);
-            lineEnd = lineStart;
-        }
-        lineStart = lineEnd + 1;
+namespace {
+
+// "v", "vt", "vn": how many numbers a line may hold. tinyobjloader reads x y z of a position
+// and either w (ignored) or r g b (vertex colours); u [v [w]] of a texture coordinate (the OBJ
+// format's optional v and w default to 0); x y z of a normal.
+bool isAcceptedCount(std::string_view keyword, size_t count) {
+    if (keyword == "v") return count == 3 || count == 4 || count == 6;
+    if (keyword == "vt") return count >= 1 && count <= 3;
+    return count == 3;
+}
+const char* acceptedCounts(std::string_view keyword) {
+    if (keyword == "v") return "3 (x y z), 4 (x y z w) or 6 (x y z r g b)";
+    if (keyword == "vt") return "1 to 3 (u [v [w]])";
+    return "3 (x y z)";
+}
+
+// The token of `line` that starts at or after `position` (tokens are separated by spaces and
+// tabs, as tinyobjloader separates them); empty at the end of the line. `position` moves past
+// it. (Plain loops: string_view::find_first_of calls memchr once per character.)
+std::string_view nextToken(std::string_view line, size_t& position) {
+    auto isSpace = [](char c) { return c == ' ' || c == '\t'; };
+    size_t start = position;
+    while (start < line.size() && isSpace(line[start])) ++start;
+    position = start;
+    while (position < line.size() && !isSpace(line[position])) ++position;
+    return line.substr(start, position - start);
+}
+
+// One index of a face vertex: a nonzero decimal integer within int's range (a negative one
+// counts back from the last vertex read). tinyobjloader reads indices with atoi, which wraps
+// beyond that range and reads "1.5" as 1.
+bool isObjIndex(std::string_view s) {
+    size_t i = !s.empty() && (s[0] == '+' || s[0] == '-') ? 1 : 0;
+    if (i == s.size()) return false;
+    int64_t value = 0;
+    for (; i < s.size(); ++i) {
+        if (s[i] < '0' || s[i] > '9') return false;
+        value = value * 10 + (s[i] - '0');
+        if (value > std::numeric_limits<int>::max()) return false;
     }
-    return text;
+    return value != 0;
+}
+
+// A face vertex: i, i/j, i//k or i/j/k (position, texture coordinate and normal indices).
+bool isFaceVertex(std::string_view token) {
+    const size_t first = token.find('/');
+    if (first == std::string_view::npos) return isObjIndex(token);
+    if (!isObjIndex(token.substr(0, first))) return false;
+    const std::string_view rest = token.substr(first + 1);
+    const size_t second = rest.find('/');
+    if (second == std::string_view::npos) return isObjIndex(rest);
+    const std::string_view uv = rest.substr(0, second);
+    return (uv.empty() || isObjIndex(uv)) && isObjIndex(rest.substr(second + 1));
+}
+
+// Whether the decimal number `s` is finite as a float, as tinyobjloader reads it (1e39 is
+// infinite). Without an exponent, 38 digits before the point always fit: strtof, the costly
+// part, is only needed for the rest.
+bool fitsFloat(std::string_view s) {
+    size_t integerDigits = 0;
+    bool point = false, exponent = false;
+    for (const char c : s) {
+        exponent |= c == 'e' || c == 'E';
+        point |= c == '.';
+        integerDigits += !point && c >= '0' && c <= '9';
+    }
+    return (!exponent && integerDigits <= 38) ||
+           std::isfinite(std::strtof(std::string(s).c_str(), nullptr));
+}
+
+// The problem with one line of an OBJ file that tinyobjloader would misread without a word, or
+// "" when there is none. Only the lines Alphorn uses are checked: v, vt, vn and f.
+std::string lineProblem(std::string_view line) {
+    // tinyobjloader's lines end at a NUL byte: whatever follows it would be dropped.
+    if (line.find('\0') != std::string_view::npos) return "the line contains a NUL byte";
+    size_t position = 0;
+    const std::string_view keyword = nextToken(line, position);
+    const bool numbers = keyword == "v" || keyword == "vt" || keyword == "vn";
+    if (!numbers && keyword != "f") return "";
+    auto shown = [&] { return std::string(line.substr(line.find_first_not_of(" \t"), 60)); };
+    size_t count = 0;
+    // A comment may end the numbers (tinyobjloader stops at what is no number); in a face it
+    // is an error to tinyobjloader, reported below as no face vertex.
+    for (std::string_view token = nextToken(line, position);
+         !token.empty() && !(numbers && token[0] == '#');
+         token = nextToken(line, position), ++count) {
+        if (!numbers && !isFaceVertex(token))
+            return absl::StrFormat(
+                "\"%s\": \"%s\" is not a face vertex (i, i/j, i//k or i/j/k, with nonzero integer "
+                "indices within +-2147483647)",
+                shown(), token.substr(0, 40));
+        if (numbers && !(isDecimalNumber(token) && fitsFloat(token)))
+            return absl::StrFormat("\"%s\": \"%s\" is not a finite decimal number", shown(),
+                                   token.substr(0, 40));
+    }
+    if (!numbers && count < 3)
+        return absl::StrFormat("\"%s\": a face needs at least 3 vertices", shown());
+    if (numbers && !isAcceptedCount(keyword, count))
+        return absl::StrFormat("\"%s\" has %d numbers; \"%s\" takes %s", shown(), count, keyword,
+                               acceptedCounts(keyword));
+    return "";
+}
+
+}  // namespace
+
+// One pass over the lines as tinyobjloader splits them (at \n, \r or \r\n): each is checked,
+// and the "vw" lines are emptied. tinyobjloader's "vw" extension (skin weights) converts joint
+// ids from float to int unchecked, which is undefined behaviour for ids beyond the int range;
+// Alphorn has no use for skin weights. Line breaks stay, so line numbers still match the file.
+ObjText preparedForTinyObj(std::string text, const std::string& name) {
+    size_t read = 0, write = 0, lineNumber = 1, faceCount = 0;
+    while (read < text.size()) {
+        size_t lineEnd = read;
+        while (lineEnd < text.size() && text[lineEnd] != '\n' && text[lineEnd] != '\r') ++lineEnd;
+        size_t breakEnd = lineEnd;
+        if (breakEnd < text.size())
+            breakEnd +=
+                text[breakEnd] == '\r' && breakEnd + 1 < text.size() && text[breakEnd + 1] == '\n'
+                    ? 2
+                    : 1;
+        const std::string_view line(text.data() + read, lineEnd - read);
+        const std::string problem = lineProblem(line);
+        if (!problem.empty()) fail("%s:%d: %s", name, lineNumber, problem);
+        size_t afterKeyword = 0;
+        const std::string_view keyword = nextToken(line, afterKeyword);
+        faceCount += keyword == "f";
+        // The line's text goes, its break stays.
+        const size_t kept = keyword == "vw" && afterKeyword < line.size() ? lineEnd : read;
+        if (write != kept) std::memmove(text.data() + write, text.data() + kept, breakEnd - kept);
+        write += breakEnd - kept;
+        lineNumber += breakEnd > lineEnd;
+        read = breakEnd;
+    }
+    text.resize(write);
+    return {std::move(text), faceCount};
 }
 
 // Embree refuses (asserts on) rays whose origin has a coordinate beyond about 1.8e18, and rays
@@ -53,7 +176,13 @@ class WavefrontOBJ : public Mesh {
         if (!file) props.fail("cannot open OBJ file \"%s\": %s", path, std::strerror(errno));
         std::stringstream contents;
         contents << file.rdbuf();
-        std::istringstream stream(withoutSkinWeightLines(std::move(contents).str()));
+        ObjText prepared;
+        try {
+            prepared = preparedForTinyObj(std::move(contents).str(), path);
+        } catch (const Error& e) {
+            props.fail("OBJ file %s", e.what());
+        }
+        std::istringstream stream(std::move(prepared.text));
 
         tinyobj::attrib_t attrib;
         std::vector<tinyobj::shape_t> shapes;
@@ -88,6 +217,13 @@ class WavefrontOBJ : public Mesh {
                 faceIndices.push_back(it->second);
             }
         }
+        // tinyobjloader drops the polygons it cannot triangulate: that is not an empty file.
+        if (faceIndices.empty() && prepared.faceCount > 0)
+            props.fail(
+                "OBJ file \"%s\" has %d face%s, but triangulating %s gave no triangle (%s "
+                "vertices are collinear or coincide)",
+                path, prepared.faceCount, prepared.faceCount == 1 ? "" : "s",
+                prepared.faceCount == 1 ? "it" : "them", prepared.faceCount == 1 ? "its" : "their");
         if (faceIndices.empty()) props.fail("OBJ file \"%s\" contains no faces", path);
 
         const size_t n = keys.size();

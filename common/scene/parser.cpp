@@ -1,5 +1,6 @@
 #include "common/scene/parser.h"
 
+#include "common/core/decimal_number.h"
 #include "common/scene/scene.h"
 
 #include <absl/strings/ascii.h>
@@ -109,12 +110,16 @@ class Parser {
         m_baseDirectory = std::filesystem::path(m_path).parent_path().string();
 
         pugi::xml_document doc;
-        pugi::xml_parse_result result = doc.load_buffer(m_text.data(), m_text.size());
+        // As a fragment, pugixml keeps text outside the root element (it drops it otherwise), so
+        // that failIfNotOneRootElement can refuse it.
+        pugi::xml_parse_result result = doc.load_buffer(m_text.data(), m_text.size(),
+                                                        pugi::parse_default | pugi::parse_fragment);
         if (!result) fail("%s: malformed XML: %s", location(result.offset), result.description());
 
         pugi::xml_node root = doc.document_element();
         if (!root) fail("%s: the file has no root element", m_name);
-        failIfNestedTooDeep(doc);
+        failIfNotOneRootElement(doc, root);
+        failIfNestedTooDeepOrAttributeRepeated(doc);
         if (!kObjectTags.count(root.name()))
             fail("%s: the root element must be <scene> or <test>, found <%s>",
                  location(root.offset_debug()), root.name());
@@ -128,23 +133,55 @@ class Parser {
         return out;
     }
 
+    // XML allows one root element and no text outside it. The file is read as a fragment, which
+    // keeps both; the loader would otherwise silently ignore a second <scene> (or the part of a
+    // scene after a stray </scene>).
+    void failIfNotOneRootElement(const pugi::xml_document& doc, const pugi::xml_node& root) const {
+        for (const pugi::xml_node& node : doc.children()) {
+            if (node.type() == pugi::node_element && node != root)
+                failAt(node,
+                       "malformed XML: a second root element <%s> after <%s>; a file holds one",
+                       node.name(), root.name());
+            if (node.type() == pugi::node_pcdata || node.type() == pugi::node_cdata)
+                failAt(node, "malformed XML: text \"%s\" outside the root element <%s>",
+                       std::string(absl::StripAsciiWhitespace(node.value())).substr(0, 40),
+                       root.name());
+        }
+    }
+
     // Scenes nest a few levels (scene, mesh, bsdf, texture); the parser recurses once per level,
     // so a file nesting thousands would overflow the stack (a crash of the coordinator that
     // admits it). The depth is measured by pugixml's walker, which keeps its own stack.
+    // The same walk refuses an attribute written twice in one element, which XML forbids and
+    // pugixml accepts (the first would be used, the second silently ignored).
     static constexpr int kMaxElementDepth = 64;
-    void failIfNestedTooDeep(pugi::xml_document& doc) {
-        struct DepthCheck : pugi::xml_tree_walker {
-            pugi::xml_node tooDeep;
+    void failIfNestedTooDeepOrAttributeRepeated(pugi::xml_document& doc) {
+        struct Check : pugi::xml_tree_walker {
+            pugi::xml_node tooDeep, repeating;
+            std::string repeated;
             bool for_each(pugi::xml_node& node) override {
-                if (node.type() != pugi::node_element || depth() < kMaxElementDepth) return true;
-                tooDeep = node;
-                return false;
+                if (node.type() != pugi::node_element) return true;
+                if (depth() >= kMaxElementDepth) {
+                    tooDeep = node;
+                    return false;
+                }
+                std::set<std::string_view> names;
+                for (const pugi::xml_attribute& attribute : node.attributes())
+                    if (!names.insert(attribute.name()).second) {
+                        repeating = node;
+                        repeated = attribute.name();
+                        return false;
+                    }
+                return true;
             }
         } check;
         doc.traverse(check);
         if (check.tooDeep)
             fail("%s: <%s> is nested more than %d elements deep; scenes nest a few",
                  location(check.tooDeep.offset_debug()), check.tooDeep.name(), kMaxElementDepth);
+        if (check.repeating)
+            failAt(check.repeating, "malformed XML: <%s> has the attribute \"%s\" more than once",
+                   check.repeating.name(), check.repeated);
     }
 
     // Plugins name the files they could not read by their full path; inside a confinement root
@@ -228,10 +265,14 @@ class Parser {
 
     float toFloat(const pugi::xml_node& node, const std::string& text) {
         std::string s(absl::StripAsciiWhitespace(text));
-        char* end = nullptr;
-        float v = std::strtof(s.c_str(), &end);
-        if (s.empty() || *end != '\0') failAt(node, "could not parse the number \"%s\"", text);
-        return v;
+        // inf and nan are numbers here, so that the plugins' range checks refuse them naming
+        // the parameter.
+        const bool hasSign = !s.empty() && (s[0] == '-' || s[0] == '+');
+        const std::string word = absl::AsciiStrToLower(absl::string_view(s).substr(hasSign));
+        const bool infinityOrNan = word == "inf" || word == "infinity" || word == "nan";
+        if (!infinityOrNan && !isDecimalNumber(s))
+            failAt(node, "could not parse the number \"%s\" (numbers are decimal)", text);
+        return std::strtof(s.c_str(), nullptr);
     }
 
     int toInt(const pugi::xml_node& node, const std::string& text) {
@@ -266,7 +307,9 @@ class Parser {
         std::vector<float> v = toFloats(node, text);
         if (v.size() != 3) failAt(node, "expected 3 values, got \"%s\"", text);
         const Vector3f vector(v[0], v[1], v[2]);
-        if (!(vector.cwiseAbs().maxCoeff() <= kMaxTransformEntry))
+        // allFinite first: Eigen's maxCoeff can pass over a NaN that is not the first
+        // component ("2,nan,6" passed, and lookat reported its origin and target coinciding).
+        if (!vector.allFinite() || !(vector.cwiseAbs().maxCoeff() <= kMaxTransformEntry))
             failAt(node, "\"%s\" must have finite components within +-%g", text,
                    kMaxTransformEntry);
         return vector;

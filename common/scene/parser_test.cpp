@@ -106,6 +106,58 @@ TEST_F(ParserTest, PositionsAndTransformsBeyondTheSceneBoundAreRefused) {
         {"bad.xml:2:29", "the transform \"toWorld\" has an entry beyond 1e+15"});
 }
 
+// Eigen's maxCoeff passed over a NaN after the first component: lookat origin="2,nan,6" was
+// reported as the origin and target coinciding, and such a point or vector was accepted.
+TEST_F(ParserTest, NaNInAnyComponentOfAPointIsRefused) {
+    for (const std::string origin : {"nan,2,6", "2,nan,6", "2,6,nan", "2,6,-inf"})
+        expectError(
+            "<scene>\n<camera type=\"perspective\"><transform name=\"toWorld\">\n"
+            "<lookat origin=\"" +
+                origin + "\" target=\"0,0,0\" up=\"0,1,0\"/></transform></camera></scene>",
+            {"bad.xml:3:2", "\"" + origin + "\" must have finite components"});
+    expectError(
+        "<scene>\n<emitter type=\"point\">\n<point name=\"position\" value=\"0, 0, nan\"/>"
+        "</emitter></scene>",
+        {"bad.xml:3:2", "\"0, 0, nan\" must have finite components"});
+}
+
+// A file name the system cannot resolve (a symbolic link loop, a name of 5000 characters) is
+// reported at the element that names it, for textures as for meshes, also on the farm (inside a
+// confinement root), never as a bare filesystem error.
+TEST_F(ParserTest, UnresolvableFileNamesNameTheElement) {
+    std::filesystem::create_symlink("loop_b.png", m_dir / "loop_a.png");
+    std::filesystem::create_symlink("loop_a.png", m_dir / "loop_b.png");
+    const std::string longName = std::string(5000, 'a') + ".png";
+    for (const std::string& name : {std::string("loop_a.png"), longName}) {
+        const std::string texture =
+            "<scene>\n<mesh type=\"obj\"><string name=\"filename\" value=\"triangle.obj\"/>\n"
+            "<bsdf type=\"diffuse\">\n<texture type=\"bitmap\" name=\"albedo\"><string "
+            "name=\"filename\" value=\"" +
+            name + "\"/></texture></bsdf></mesh></scene>";
+        const std::string mesh = "<scene>\n<mesh type=\"obj\"><string name=\"filename\" value=\"" +
+                                 name + "\"/></mesh></scene>";
+        for (const auto& [text, where] : {std::pair(texture, std::string("bad.xml:4:2 (texture "
+                                                                         "type=\"bitmap\")")),
+                                          std::pair(mesh, std::string("bad.xml:2:2 (mesh "
+                                                                      "type=\"obj\")"))}) {
+            const std::string path = write("bad.xml", text);
+            for (const bool confined : {false, true}) {
+                FileReferencePolicy policy;
+                if (confined) policy.confinementRoot = m_dir.string();
+                try {
+                    parseSceneFile(path, policy);
+                    ADD_FAILURE() << "no error for " << text.substr(0, 200);
+                } catch (const Error& e) {
+                    const std::string message = e.what();
+                    EXPECT_NE(message.find(where), std::string::npos) << message.substr(0, 300);
+                    EXPECT_EQ(message.find("filesystem error"), std::string::npos)
+                        << message.substr(0, 300);
+                }
+            }
+        }
+    }
+}
+
 TEST_F(ParserTest, LoadsMinimalSceneWithNoriDefaults) {
     std::string path = write(
         "ok.xml",
@@ -173,6 +225,55 @@ TEST_F(ParserTest, ErrorsNameFileLineAndProblem) {
                 {"bad.xml:4:", "axis"});
     expectError(sceneWith("<mesh type=\"obj\"><integer name=\"filename\" value=\"3\"/></mesh>"),
                 {"bad.xml:4:", "filename"});
+}
+
+// Numbers are decimal: strtof alone read fov="0x10" as 16 degrees. inf and nan still parse, so
+// that the plugin's own check refuses them naming the parameter.
+TEST_F(ParserTest, NumbersAreDecimalOnly) {
+    auto camera = [](const std::string& property) {
+        return "<scene>\n<integrator type=\"normals\"/>\n<camera type=\"perspective\">\n"
+               "<integer name=\"width\" value=\"8\"/><integer name=\"height\" value=\"6\"/>\n" +
+               property + "\n</camera>\n</scene>\n";
+    };
+    for (const std::string number : {"0x10", "0x1p4", "-0X1.8P+3", "nan(123)", "1e", "1e+", ".",
+                                     "e5", "1.2.3", "1,5", "0x", "infinit", "--1", "-+inf", "1e5f"})
+        expectError(
+            camera("<float name=\"fov\" value=\"" + number + "\"/>"),
+            {"bad.xml:5:", "could not parse the number \"" + number + "\"", "numbers are decimal"});
+    expectError(sceneWith("<sampler type=\"independent\">\n<integer name=\"sampleCount\" "
+                          "value=\"0x10\"/></sampler>"),
+                {"bad.xml:5:", "could not parse the integer \"0x10\""});
+    expectError(camera("<float name=\"fov\" value=\"inf\"/>"),
+                {"bad.xml:3:", "fov must be in [0.001, 180) degrees, got inf"});
+    expectError(camera("<float name=\"fov\" value=\"-NaN\"/>"),
+                {"bad.xml:3:", "fov must be in [0.001, 180) degrees, got"});
+    expectError(camera("<point name=\"x\" value=\"0x1, 0, 0\"/>"),
+                {"bad.xml:5:", "could not parse the number \"0x1\""});
+    for (const std::string number : {"16", "+16", "16.", ".5e2", "1.6E1", "160e-1", " 16 "})
+        EXPECT_NO_THROW(parseSceneFile(
+            write("ok.xml", camera("<float name=\"fov\" value=\"" + number + "\"/>"))))
+            << number;
+}
+
+// XML that is not well-formed: pugixml accepts an attribute written twice (the loader used the
+// first) and elements after the root (the loader ignored them).
+TEST_F(ParserTest, RepeatedAttributesAndSecondRootElementsAreRefused) {
+    expectError(
+        "<scene>\n<integrator type=\"normals\"/>\n<camera type=\"perspective\">\n"
+        "  <float name=\"fov\" value=\"45\" value=\"50\"/>\n</camera>\n</scene>\n",
+        {"bad.xml:4:4", "malformed XML: <float> has the attribute \"value\" more than once"});
+    expectError(sceneWith("<mesh type=\"obj\" type=\"obj\"/>"),
+                {"bad.xml:4:2", "<mesh> has the attribute \"type\" more than once"});
+    expectError(sceneWith("") + "<scene>\n</scene>\n",
+                {"bad.xml:6:2", "malformed XML: a second root element <scene> after <scene>"});
+    expectError(sceneWith("") + "<mesh type=\"obj\"/>\n",
+                {"bad.xml:6:2", "a second root element <mesh>"});
+    expectError(sceneWith("") + "stray text\n",
+                {"bad.xml:5:", "text \"stray text\" outside the root element <scene>"});
+    expectError("text first\n" + sceneWith(""),
+                {"bad.xml:1:1", "text \"text first\" outside the root element"});
+    // Comments, processing instructions and whitespace after the root are well-formed.
+    EXPECT_NO_THROW(parseSceneFile(write("ok.xml", sceneWith("") + "<!-- end -->\n<?pi x?>\n\n")));
 }
 
 TEST_F(ParserTest, MisspeltNamesAreRefusedWithTheNearestKnownOne) {

@@ -273,6 +273,39 @@ TEST(Texture, DiffuseAlbedoFollowsTheTexture) {
     expectColor(bsdf->eval(rec), Color3f(0.1f, 0.1f, 0.8f) * InvPi);
 }
 
+// A plain albedo of -1 is refused; one from a texture was only warned about while rendering (as
+// negative samples). Texture bounds are exact, so the texture is refused at its element.
+TEST(Texture, DiffuseAlbedoTextureMustStayNonNegative) {
+    expectParseError(
+        "negative_constant_albedo.xml", R"(<bsdf type="diffuse">
+  <texture type="constant" name="albedo">
+    <color name="value" value="-1"/>
+  </texture>
+</bsdf>)",
+        2,
+        "(texture type=\"constant\"): the diffuse \"albedo\" must stay finite and >= 0 "
+        "in every channel; this texture ranges from [-1, -1, -1] to [-1, -1, -1]");
+    expectParseError("negative_checker_albedo.xml", R"(<bsdf type="diffuse">
+
+  <texture type="checkerboard2d" name="albedo">
+    <color name="color0" value="0.5"/><color name="color1" value="0.2, -0.1, 0.3"/>
+  </texture>
+</bsdf>)",
+                     3, "the diffuse \"albedo\" must stay finite and >= 0");
+    expectParseError("negative_sum_albedo.xml", R"(<bsdf type="diffuse">
+  <texture type="combination" name="albedo">
+    <texture type="constant"><color name="value" value="0.5"/></texture>
+    <texture type="constant"><color name="value" value="-0.75"/></texture>
+  </texture>
+</bsdf>)",
+                     2, "(texture type=\"combination\"): the diffuse \"albedo\" must stay");
+    // Zero is a valid albedo (black), and so is a texture above 1, as a plain value may be.
+    EXPECT_NO_THROW(parseAs<BSDF>("zero_albedo.xml", R"(<bsdf type="diffuse">
+  <texture type="checkerboard2d" name="albedo">
+    <color name="color0" value="0"/><color name="color1" value="1.5"/>
+  </texture></bsdf>)"));
+}
+
 TEST(Texture, ClearErrors) {
     expectParseError("missing_texture.xml", R"(<scene>
   <mesh type="obj">

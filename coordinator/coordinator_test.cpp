@@ -135,6 +135,16 @@ class CoordinatorJob : public CoordinatorJobTest {
         }
     }
 
+    // Leases one unit to `worker`, renders and reports it as a worker does; it must merge.
+    void mergeOneUnit(Coordinator& coordinator, uint64_t worker) {
+        const v1::AcquireWorkResponse lease =
+            coordinator.acquire(worker, std::chrono::steady_clock::now());
+        ASSERT_TRUE(lease.has_work());
+        std::string compressed;
+        const v1::ResultChunk header = render(lease, worker, compressed);
+        ASSERT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
+    }
+
     std::string localFilm(uint32_t passes = 3) {
         auto scene = loadScene((m_dir / "scene/s.xml").string());
         RenderSettings settings;
@@ -1433,13 +1443,8 @@ TEST_F(CoordinatorJob, AStopThatCannotSaveMergedUnitsCountsTheJobs) {
     m_options.checkpointIntervalSeconds = 1e6;  // no checkpoint before the stop's
     Coordinator coordinator(m_options);
     coordinator.submit(upload(coordinator));
-    const uint64_t worker = coordinator.registerWorker(thisBuild());
-    const v1::AcquireWorkResponse lease =
-        coordinator.acquire(worker, std::chrono::steady_clock::now());
-    ASSERT_TRUE(lease.has_work());
-    std::string compressed;
-    const v1::ResultChunk header = render(lease, worker, compressed);
-    ASSERT_EQ(coordinator.report(header, compressed), v1::RESULT_MERGED);
+    mergeOneUnit(coordinator, coordinator.registerWorker(thisBuild()));
+    ASSERT_FALSE(HasFatalFailure());
     std::signal(SIGXFSZ, SIG_IGN);  // a failed write, not a killed process
     rlimit original{};
     ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &original), 0);

@@ -24,6 +24,7 @@
 #include "common/photon/volume_photon_map.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <tbb/info.h>
 
@@ -106,7 +107,7 @@ QueryResult run(const Index& index, const std::vector<Segment>& segments, size_t
 
 int main(int argc, char** argv) {
     const std::string scenePath =
-        argc > 1 ? argv[1] : ALPHORN_SOURCE_DIR "/scenes/seed/medium_sphere_vpm.xml";
+        argc > 1 ? argv[1] : sourcePath("scenes/seed/medium_sphere_vpm.xml");
     const uint64_t photonPaths = argc > 2 ? std::stoull(argv[2]) : 100000;
     const int rounds = argc > 3 ? std::stoi(argv[3]) : 3;
     try {

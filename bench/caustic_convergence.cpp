@@ -11,6 +11,7 @@
 #include "common/farm/job_scene.h"
 #include "common/render/unit.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <chrono>
 #include <cmath>
@@ -63,7 +64,7 @@ int main(int argc, char** argv) {
     const uint32_t maxPasses = argc > 1 ? uint32_t(std::stoul(argv[1])) : 256;
     const uint32_t referencePasses = argc > 2 ? uint32_t(std::stoul(argv[2])) : 2048;
     const std::string outDir = argc > 3 ? argv[3] : "out/bench";
-    const std::string scenePath = std::string(ALPHORN_SOURCE_DIR) + "/scenes/caustic/caustic.xml";
+    const std::string scenePath = sourcePath("scenes/caustic/caustic.xml");
     std::filesystem::create_directories(outDir);
 
     auto photonScene = farm::loadSceneWithIntegrator(scenePath, "");

@@ -34,6 +34,7 @@
 #include "common/render/local_render.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <absl/strings/str_format.h>
 #include <time.h>
@@ -55,7 +56,7 @@ using bench::seconds;
 
 namespace {
 
-const std::string kSource = ALPHORN_SOURCE_DIR;
+const std::string kSource = sourceDirectory();
 
 std::string readFile(const std::string& path) {
     std::ifstream in(path);

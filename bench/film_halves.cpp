@@ -8,6 +8,7 @@
 #include "common/render/unit.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <cstdio>
 #include <string>
@@ -15,7 +16,7 @@
 using namespace alphorn;
 
 int main(int argc, char** argv) {
-    const std::string path = argc > 1 ? argv[1] : ALPHORN_SOURCE_DIR "/scenes/cbox/cbox.xml";
+    const std::string path = argc > 1 ? argv[1] : sourcePath("scenes/cbox/cbox.xml");
     SceneOverrides overrides;
     if (argc <= 1) overrides.imageSize = Vector2i(256, 256);
     const std::shared_ptr<Scene> scene = loadScene(path, {}, overrides);

@@ -21,6 +21,7 @@
 #include "common/render/unit.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <sys/resource.h>
 
@@ -187,8 +188,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> scenes;
     for (int i = 3; i < argc; ++i) scenes.push_back(argv[i]);
     if (scenes.empty())
-        scenes = {std::string(ALPHORN_SOURCE_DIR) + "/scenes/cbox/cbox_ppm.xml",
-                  std::string(ALPHORN_SOURCE_DIR) + "/scenes/caustic/caustic.xml"};
+        scenes = {sourcePath("scenes/cbox/cbox_ppm.xml"), sourcePath("scenes/caustic/caustic.xml")};
     for (const std::string& scene : scenes) runScene(scene, passes, referencePasses);
     return 0;
 }

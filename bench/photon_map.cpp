@@ -21,6 +21,7 @@
 #include "common/render/unit.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <tbb/global_control.h>
 #include <tbb/info.h>
@@ -99,7 +100,7 @@ std::shared_ptr<Integrator> makePhotonMapper(uint64_t photons, float radius) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    const std::string scenePath = argc > 1 ? argv[1] : ALPHORN_SOURCE_DIR "/scenes/cbox/cbox.xml";
+    const std::string scenePath = argc > 1 ? argv[1] : sourcePath("scenes/cbox/cbox.xml");
     const uint64_t photonCount = argc > 2 ? std::stoull(argv[2]) : 1000000;
     const int rounds = argc > 3 ? std::stoi(argv[3]) : 3;
     try {

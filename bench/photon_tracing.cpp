@@ -20,6 +20,7 @@
 #include "common/scene/accel.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <tbb/global_control.h>
 
@@ -56,8 +57,7 @@ uint64_t traceRawEmbree(const Scene& scene, const Eigen::AlignedBox3f& box, uint
 }  // namespace
 
 int main(int argc, char** argv) {
-    const std::string path =
-        argc > 1 ? argv[1] : ALPHORN_SOURCE_DIR "/scenes/seed/medium_sphere_vpm.xml";
+    const std::string path = argc > 1 ? argv[1] : sourcePath("scenes/seed/medium_sphere_vpm.xml");
     const uint64_t paths = argc > 2 ? std::stoull(argv[2]) : 200000;
     const int rounds = argc > 3 ? std::stoi(argv[3]) : 5;
     try {

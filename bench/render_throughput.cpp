@@ -30,6 +30,7 @@
 #include "common/scene/accel_counters.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/global_control.h>
@@ -210,7 +211,7 @@ Rate timed(Run&& run) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    std::string scenePath = argc > 1 ? argv[1] : ALPHORN_SOURCE_DIR "/scenes/cbox/cbox.xml";
+    std::string scenePath = argc > 1 ? argv[1] : sourcePath("scenes/cbox/cbox.xml");
     uint32_t passes = argc > 2 ? std::stoul(argv[2]) : 8;
     int rounds = argc > 3 ? std::stoi(argv[3]) : 3;
     try {

@@ -29,6 +29,7 @@
 #include "common/render/unit.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <algorithm>
 #include <cmath>
@@ -185,7 +186,7 @@ int main(int argc, char** argv) {
     for (const SceneCase& sceneCase : scenes) {
         if (("," + chosen + ",").find("," + std::string(sceneCase.key) + ",") == std::string::npos)
             continue;
-        const std::string path = std::string(ALPHORN_SOURCE_DIR) + "/" + sceneCase.path;
+        const std::string path = sourcePath(sceneCase.path);
         const auto referenceScene = loadWithSampler(path, "independent", 1);
         const Tile tile =
             sceneCase.crop.width() > 0 ? sceneCase.crop : centreCrop(*referenceScene, crop);

@@ -19,6 +19,7 @@
 #include "common/render/unit.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
@@ -47,7 +48,7 @@ struct PassTime {
 }  // namespace
 
 int main(int argc, char** argv) {
-    const std::string path = argc > 1 ? argv[1] : ALPHORN_SOURCE_DIR "/scenes/stage/stage_seed.xml";
+    const std::string path = argc > 1 ? argv[1] : sourcePath("scenes/stage/stage_seed.xml");
     const int threads = argc > 2 ? std::stoi(argv[2]) : 2;
     const uint32_t total = argc > 3 ? static_cast<uint32_t>(std::stoul(argv[3])) : 390;
     std::vector<uint32_t> passes;

@@ -17,6 +17,7 @@
 #include "common/render/local_render.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <tbb/global_control.h>
 
@@ -94,9 +95,9 @@ int main(int argc, char** argv) {
     for (int i = 3; i + 1 < argc; i += 2)
         jobs.push_back({argv[i], static_cast<uint32_t>(std::stoul(argv[i + 1]))});
     if (jobs.empty())
-        jobs = {{ALPHORN_SOURCE_DIR "/scenes/cbox/cbox.xml", 4},
-                {ALPHORN_SOURCE_DIR "/scenes/cbox/cbox_ppm.xml", 4},
-                {ALPHORN_SOURCE_DIR "/scenes/caustic/caustic.xml", 8}};
+        jobs = {{sourcePath("scenes/cbox/cbox.xml"), 4},
+                {sourcePath("scenes/cbox/cbox_ppm.xml"), 4},
+                {sourcePath("scenes/caustic/caustic.xml"), 8}};
     try {
         bool identical = true;
         for (const Job& job : jobs) identical = measure(job, threads, rounds) && identical;

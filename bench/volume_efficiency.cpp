@@ -14,6 +14,7 @@
 #include "common/integrator/integrator.h"
 #include "common/render/unit.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <chrono>
 #include <cstdio>
@@ -80,7 +81,7 @@ int main(int argc, char** argv) {
     if (scenes.empty())
         for (const char* name :
              {"medium_sphere_chromatic", "medium_sphere_scatter", "spotlight_fog"})
-            scenes.push_back(std::string(ALPHORN_SOURCE_DIR) + "/scenes/seed/" + name + ".xml");
+            scenes.push_back(sourcePath("scenes/seed/") + name + ".xml");
     if (passes < 2) {
         std::fprintf(stderr, "need at least 2 passes for a variance\n");
         return 2;

@@ -7,6 +7,7 @@
 #include "common/farm/convert.h"
 #include "common/farm/files.h"
 #include "coordinator/farm_error.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -27,8 +28,7 @@ class AdmissionTest : public ::testing::Test {
         fs::remove_all(m_dir);
         fs::create_directories(m_dir / "scene");
         fs::create_directories(m_dir / "staging");
-        fs::copy_file(fs::path(ALPHORN_SOURCE_DIR) / "scenes/meshes/triangle.obj",
-                      m_dir / "scene/triangle.obj");
+        fs::copy_file(sourcePath("scenes/meshes/triangle.obj"), m_dir / "scene/triangle.obj");
         std::ofstream(m_dir / "scene/room.xml") << R"(<scene>
   <integrator type="normals"/>
   <sampler type="independent"><integer name="sampleCount" value="24"/></sampler>

@@ -12,6 +12,7 @@
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
 #include "coordinator/coordinator.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -30,8 +31,7 @@ class CoordinatorJobTest : public ::testing::Test {
         m_dir = fs::temp_directory_path() / ("alphorn_coordinator_" + std::to_string(::getpid()));
         fs::remove_all(m_dir);
         fs::create_directories(m_dir / "scene");
-        fs::copy_file(fs::path(ALPHORN_SOURCE_DIR) / "scenes/meshes/sphere.obj",
-                      m_dir / "scene/sphere.obj");
+        fs::copy_file(sourcePath("scenes/meshes/sphere.obj"), m_dir / "scene/sphere.obj");
         writeScene(R"(<integrator type="normals"/>)");
         m_options.stateDirectory = (m_dir / "state").string();
         m_options.leaseSeconds = 60;

@@ -25,6 +25,7 @@
 #include "common/scene/scene.h"
 #include "coordinator/coordinator.h"
 #include "coordinator/log.h"
+#include "tests/support/source_tree.h"
 
 #include <unistd.h>
 
@@ -998,8 +999,7 @@ int main(int argc, char** argv) {
     fs::remove_all(base);
     const fs::path scene = base / "scene";
     fs::create_directories(scene);
-    fs::copy_file(fs::path(ALPHORN_SOURCE_DIR) / "scenes/meshes/triangle.obj",
-                  scene / "triangle.obj");
+    fs::copy_file(sourcePath("scenes/meshes/triangle.obj"), scene / "triangle.obj");
     for (int variant = 0; variant < 3; ++variant)
         std::ofstream(scene / ("s" + std::to_string(variant) + ".xml"))
             << "<!-- variant " << variant << " -->\n"

@@ -6,6 +6,7 @@
 #include "common/farm/film_codec.h"
 #include "coordinator/checkpoint.h"
 #include "fuzz/fuzz_support.h"
+#include "tests/support/source_tree.h"
 
 #include <cstdio>
 
@@ -51,8 +52,7 @@ int main(int argc, char** argv) {
     }
     const fs::path out = argv[1];
 
-    const farm::Bundle bundle =
-        farm::gatherBundle(std::string(ALPHORN_SOURCE_DIR) + "/scenes/cbox/cbox.xml");
+    const farm::Bundle bundle = farm::gatherBundle(alphorn::sourcePath("scenes/cbox/cbox.xml"));
     write(out / "bundle_manifest/cbox_manifest", farm::toProto(bundle).SerializeAsString());
 
     // Header bytes as fuzz::filmShapeFromHeader reads them: width-1, height-1, x0, y0.

@@ -7,6 +7,7 @@
 #include "common/core/image.h"
 #include "common/scene/parser.h"
 #include "fuzz/fuzz_support.h"
+#include "tests/support/source_tree.h"
 
 #include <pugixml.hpp>
 
@@ -41,7 +42,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
     fuzz::silenceWarnings();
     namespace fs = std::filesystem;
     for (const char* fixture : kFixtures)
-        fs::copy_file(fs::path(ALPHORN_SOURCE_DIR) / fixture,
+        fs::copy_file(fs::path(alphorn::sourceDirectory()) / fixture,
                       fs::path(fuzz::scratchDirectory()) / fs::path(fixture).filename(),
                       fs::copy_options::overwrite_existing);
     Image image(3, 2);

@@ -13,6 +13,7 @@
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -247,8 +248,7 @@ class WorkerTest : public ::testing::Test {
         job.id = id;
         const fs::path directory = m_root / ("scene" + std::to_string(id));
         fs::create_directories(directory);
-        fs::copy_file(fs::path(ALPHORN_SOURCE_DIR) / "scenes/meshes/quad.obj",
-                      directory / "quad.obj");
+        fs::copy_file(sourcePath("scenes/meshes/quad.obj"), directory / "quad.obj");
         job.scenePath = (directory / "s.xml").string();
         std::ofstream(job.scenePath) << sceneXml;
         farm::Bundle bundle;

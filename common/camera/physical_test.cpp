@@ -2,6 +2,7 @@
 #include "common/render/local_render.h"
 #include "common/scene/scene.h"
 #include "common/texture/plugin_testing.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -63,7 +64,7 @@ TEST(PhysicalCamera, FocalPlaneIsSharp) {
 }
 
 TEST(PhysicalCamera, ZeroApertureRendersThePinholeImageByteForByte) {
-    const std::string sphere = std::string(ALPHORN_SOURCE_DIR) + "/scenes/meshes/sphere.obj";
+    const std::string sphere = sourcePath("scenes/meshes/sphere.obj");
     auto sceneXml = [&](const std::string& camera, const std::string& extra) {
         return absl::StrFormat(R"(<scene>
   <integrator type="normals"/>
@@ -101,7 +102,7 @@ TEST(PhysicalCamera, ZeroApertureRendersThePinholeImageByteForByte) {
 // <r^2> = R^2 / 2 + s^2 / 2 + 1/6 (pixel centres instead of sample positions), so
 // R = sqrt(2 <r^2> - s^2 - 1/3).
 double renderedBlurRadiusPixels(float aperture, float focal, float depth, float radius) {
-    const std::string sphere = std::string(ALPHORN_SOURCE_DIR) + "/scenes/meshes/sphere.obj";
+    const std::string sphere = sourcePath("scenes/meshes/sphere.obj");
     const std::string xml = absl::StrFormat(R"(<scene>
   <integrator type="direct_mats"/>
   <camera type="physical">

@@ -6,6 +6,7 @@
 #include "common/scene/mesh.h"
 
 #include "common/stats/student_t.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -15,7 +16,7 @@ namespace {
 // The quad [-1, 1]^2 in the xz plane at y = 0 with normal +y, carrying an area light.
 std::shared_ptr<Mesh> makeQuadLight(const Color3f& radiance) {
     PropertyList meshProps;
-    meshProps.setString("filename", ALPHORN_SOURCE_DIR "/scenes/meshes/quad.obj");
+    meshProps.setString("filename", sourcePath("scenes/meshes/quad.obj"));
     auto mesh =
         std::static_pointer_cast<Mesh>(ObjectFactory::create(ObjectKind::Mesh, "obj", meshProps));
     PropertyList lightProps;

@@ -7,6 +7,7 @@
 #include "common/farm/job_grid.h"
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -64,8 +65,7 @@ TEST(Bundle, GatherAndMaterializeRoundTrip) {
         fs::temp_directory_path() / ("alphorn_bundle_test_" + std::to_string(::getpid()));
     fs::remove_all(root);
     fs::create_directories(root / "scenes" / "sub");
-    fs::copy_file(fs::path(ALPHORN_SOURCE_DIR) / "scenes/meshes/quad.obj",
-                  root / "scenes/quad.obj");
+    fs::copy_file(sourcePath("scenes/meshes/quad.obj"), root / "scenes/quad.obj");
     // The scene sits in a subdirectory and reaches up with "..": the bundle root moves up.
     std::ofstream(root / "scenes/sub/s.xml") << R"(<scene>
   <integrator type="normals"/>

@@ -3,6 +3,7 @@
 #include "common/core/error.h"
 #include "common/farm/files.h"
 #include "fuzz/fuzz_support.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -63,8 +64,7 @@ TEST(FilmCodec, PartsCompressToOneFrameOfTheirConcatenation) {
 
 // Sums near 2^127 that overflowed when the coordinator added two results into its film.
 TEST(FilmCodec, FuzzCrashOverflowingSumsIsRefused) {
-    const std::string input =
-        readFile(std::string(ALPHORN_SOURCE_DIR) + "/fuzz/corpus/film_codec/crash_sum_overflow");
+    const std::string input = readFile(sourcePath("fuzz/corpus/film_codec/crash_sum_overflow"));
     ASSERT_GE(input.size(), fuzz::kFilmHeaderBytes);
     const fuzz::FilmShape shape =
         fuzz::filmShapeFromHeader(reinterpret_cast<const uint8_t*>(input.data()));

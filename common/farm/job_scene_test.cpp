@@ -7,6 +7,7 @@
 #include "common/farm/files.h"
 #include "common/farm/sha256.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -37,8 +38,7 @@ class JobSceneTest : public ::testing::Test {
         fs::remove_all(m_dir);
         fs::create_directories(m_dir / "blobs");
         m_server = m_dir / "server";
-        fs::copy_file(fs::path(ALPHORN_SOURCE_DIR) / "scenes/meshes/triangle.obj",
-                      m_dir / "triangle.obj");
+        fs::copy_file(sourcePath("scenes/meshes/triangle.obj"), m_dir / "triangle.obj");
     }
     void TearDown() override { fs::remove_all(m_dir); }
 

@@ -13,6 +13,7 @@
 #include "common/scene/scene.h"
 #include "common/stats/student_t.h"
 #include "common/texture/plugin_testing.h"
+#include "tests/support/source_tree.h"
 
 #include <absl/strings/str_format.h>
 #include <gtest/gtest.h>
@@ -20,7 +21,7 @@
 namespace alphorn {
 namespace {
 
-const std::string kMeshes = std::string(ALPHORN_SOURCE_DIR) + "/scenes/meshes/";
+const std::string kMeshes = sourcePath("scenes/meshes/");
 
 std::shared_ptr<Scene> load(const std::string& name, const std::string& xml) {
     return loadScene(plugin_testing::writeTempFile(name, xml));

@@ -7,6 +7,7 @@
 #include "common/sampler/sampler.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -16,7 +17,7 @@
 namespace alphorn {
 namespace {
 
-const std::string kMeshes = ALPHORN_SOURCE_DIR "/scenes/meshes/";
+const std::string kMeshes = sourcePath("scenes/meshes/");
 
 struct Estimate {
     double mean = 0.0, stderror = 0.0;

@@ -9,6 +9,7 @@
 #include "common/sampler/sampler.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -18,7 +19,7 @@
 
 namespace alphorn::photon_testing {
 
-inline const std::string kMeshes = ALPHORN_SOURCE_DIR "/scenes/meshes/";
+inline const std::string kMeshes = sourcePath("scenes/meshes/");
 
 // The furnace: a closed box of albedo 0.5 emitting radiance 1, seen from its centre looking at
 // the middle of the wall x = 1; radiance is 1/(1 - a) = 2 everywhere. `cameraMedium` (a

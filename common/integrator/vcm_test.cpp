@@ -14,6 +14,7 @@
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
 #include "common/stats/student_t.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -26,7 +27,7 @@
 namespace alphorn {
 namespace {
 
-const std::string kSourceDir = ALPHORN_SOURCE_DIR;
+const std::string kSourceDir = sourceDirectory();
 const std::string kMeshes = kSourceDir + "/scenes/meshes/";
 constexpr double kSignificance = 0.01;
 

@@ -9,6 +9,7 @@
 #include "common/scene/scene.h"
 #include "common/stats/student_t.h"
 #include "common/texture/plugin_testing.h"
+#include "tests/support/source_tree.h"
 
 #include <absl/strings/str_format.h>
 #include <gtest/gtest.h>
@@ -16,7 +17,7 @@
 namespace alphorn {
 namespace {
 
-const std::string kMeshes = std::string(ALPHORN_SOURCE_DIR) + "/scenes/meshes/";
+const std::string kMeshes = sourcePath("scenes/meshes/");
 
 // A small scene: an area light over a floor, a sphere of medium (null boundary) in between,
 // the camera in `cameraMedium`.

@@ -5,6 +5,7 @@
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
 #include "common/stats/student_t.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -16,7 +17,7 @@
 namespace alphorn {
 namespace {
 
-const std::string kMeshes = ALPHORN_SOURCE_DIR "/scenes/meshes/";
+const std::string kMeshes = sourcePath("scenes/meshes/");
 
 class PhotonTracerTest : public ::testing::Test {
   protected:
@@ -64,7 +65,7 @@ class PhotonTracerTest : public ::testing::Test {
 };
 
 TEST_F(PhotonTracerTest, PhotonsDoNotDependOnTheThreadCount) {
-    auto scene = loadScene(ALPHORN_SOURCE_DIR "/scenes/cbox/cbox.xml");
+    auto scene = loadScene(sourcePath("scenes/cbox/cbox.xml"));
     auto traceWith = [&](int threads, uint64_t pass) {
         tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
         return tracePhotons(*scene, 5, pass, 30000);

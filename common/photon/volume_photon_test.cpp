@@ -6,6 +6,7 @@
 #include "common/photon/volume_photon_map.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -17,7 +18,7 @@
 namespace alphorn {
 namespace {
 
-const std::string kMeshes = ALPHORN_SOURCE_DIR "/scenes/meshes/";
+const std::string kMeshes = sourcePath("scenes/meshes/");
 
 class VolumePhotonTest : public ::testing::Test {
   protected:

@@ -9,6 +9,7 @@
 #include "common/scene/scene.h"
 #include "common/stats/sidak.h"
 #include "common/stats/student_t.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -89,7 +90,7 @@ TEST(ErrorEstimateAdaptive, ATileFinishesWhenItsOwnErrorMeetsTheTarget) {
 std::shared_ptr<Scene> pathTracedScene(int width, int height) {
     SceneOverrides overrides;
     overrides.imageSize = Vector2i(width, height);
-    return loadScene(ALPHORN_SOURCE_DIR "/tests/integration/scenes/farm_path.xml", {}, overrides);
+    return loadScene(sourcePath("tests/integration/scenes/farm_path.xml"), {}, overrides);
 }
 
 bool sameSums(const PixelSum& a, const PixelSum& b) {

@@ -11,6 +11,7 @@
 #include "common/scene/scene.h"
 #include "common/stats/student_t.h"
 #include "common/texture/plugin_testing.h"
+#include "tests/support/source_tree.h"
 
 #include <absl/strings/str_format.h>
 #include <gtest/gtest.h>
@@ -141,7 +142,7 @@ TEST(ErrorEstimate, ProjectsPassesAtTheMonteCarloRate) {
 std::shared_ptr<Scene> smallPathTracedScene(int width, int height) {
     SceneOverrides overrides;
     overrides.imageSize = Vector2i(width, height);
-    return loadScene(ALPHORN_SOURCE_DIR "/tests/integration/scenes/farm_path.xml", {}, overrides);
+    return loadScene(sourcePath("tests/integration/scenes/farm_path.xml"), {}, overrides);
 }
 
 std::vector<double> luminances(const FilmBlock& film, int width, int height) {
@@ -268,8 +269,8 @@ std::shared_ptr<Scene> softShadowScene(const std::string& sampler, int width, in
     <bsdf type="diffuse"><color name="albedo" value="0.7"/></bsdf>
   </mesh>
 </scene>)",
-                                            sampler, width, height, ALPHORN_SOURCE_DIR,
-                                            ALPHORN_SOURCE_DIR, ALPHORN_SOURCE_DIR);
+                                            sampler, width, height, sourceDirectory(),
+                                            sourceDirectory(), sourceDirectory());
     return loadScene(plugin_testing::writeTempFile("soft_shadow_" + sampler + ".xml", xml));
 }
 
@@ -357,7 +358,7 @@ TEST(ErrorEstimateAccuracy, ProgressivePhotonMappingNoiseEstimateMatchesAShortRe
     SceneOverrides overrides;
     overrides.imageSize = Vector2i(width, height);
     const std::shared_ptr<Scene> scene =
-        loadScene(ALPHORN_SOURCE_DIR "/tests/cli/scenes/ok_photonmapper.xml", {}, overrides);
+        loadScene(sourcePath("tests/cli/scenes/ok_photonmapper.xml"), {}, overrides);
     scene->setIntegrator(progressivePhotonMapper(2000, 0.3f));
     const uint32_t referencePasses = 64, passes = 16;
     RenderSettings settings;
@@ -534,7 +535,7 @@ std::shared_ptr<Integrator> progressiveVolumetricPhotonMapper(int photons, float
 std::shared_ptr<Scene> smallMediumScene(int width, int height) {
     SceneOverrides overrides;
     overrides.imageSize = Vector2i(width, height);
-    return loadScene(ALPHORN_SOURCE_DIR "/tests/integration/scenes/farm_vpm.xml", {}, overrides);
+    return loadScene(sourcePath("tests/integration/scenes/farm_vpm.xml"), {}, overrides);
 }
 
 // The volumetric photon mapper's bias estimate: the film's smaller-radius image gathers the

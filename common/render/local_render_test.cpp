@@ -4,6 +4,7 @@
 #include "common/core/system_memory.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -13,7 +14,7 @@ namespace {
 std::shared_ptr<Scene> pathTracedScene(int width, int height) {
     SceneOverrides overrides;
     overrides.imageSize = Vector2i(width, height);
-    return loadScene(ALPHORN_SOURCE_DIR "/tests/integration/scenes/farm_path.xml", {}, overrides);
+    return loadScene(sourcePath("tests/integration/scenes/farm_path.xml"), {}, overrides);
 }
 
 // A film beyond the memory limit is refused before it is allocated, with the size it would need;

@@ -4,6 +4,7 @@
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
 #include "common/texture/plugin_testing.h"
+#include "tests/support/source_tree.h"
 
 #include <absl/strings/str_format.h>
 #include <gtest/gtest.h>
@@ -21,7 +22,7 @@ std::shared_ptr<Scene> sceneWithFilter(const std::string& name, const std::strin
   </camera>
   <mesh type="obj"><string name="filename" value="%s/scenes/meshes/quad.obj"/></mesh>
 </scene>)",
-                                                            filter, ALPHORN_SOURCE_DIR)));
+                                                            filter, sourceDirectory())));
 }
 
 // The border is the filter's radius plus half a pixel (a pixel's centre sits half a pixel in

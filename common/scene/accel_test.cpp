@@ -8,6 +8,7 @@
 #include "common/scene/accel_counters.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 #include <tbb/blocked_range.h>
@@ -30,7 +31,7 @@ namespace {
 
 // Builds both kinds of Embree BVH the renderer makes and keeps them alive, as a render does.
 struct LoadedScene {
-    std::shared_ptr<Scene> scene = loadScene(ALPHORN_SOURCE_DIR "/scenes/cbox/cbox.xml");
+    std::shared_ptr<Scene> scene = loadScene(sourcePath("scenes/cbox/cbox.xml"));
     EmbreeSphereIndex spheres{{Point3f(0.0f, 0.0f, 0.0f), Point3f(1.0f, 0.0f, 0.0f)}, {0.5f}};
 };
 

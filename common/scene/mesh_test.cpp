@@ -6,6 +6,7 @@
 #include "common/sampler/sampler.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <absl/strings/str_format.h>
 
@@ -30,7 +31,7 @@ std::shared_ptr<Scene> sceneFrom(const std::string& xml) {
 }
 
 std::string meshFile(const std::string& mesh) {
-    return std::string(ALPHORN_SOURCE_DIR) + "/scenes/meshes/" + mesh;
+    return sourcePath("scenes/meshes/") + mesh;
 }
 
 // A scene holding one of the repository's meshes, with the default BSDF unless `children` name
@@ -203,8 +204,7 @@ TEST(WavefrontOBJ, SkinWeightLinesAreEmptied) {
 // fuzz/obj_loader found a "vw" line whose joint id (1e20) tinyobjloader converted to int
 // (undefined behaviour); the file now loads to a clear error or a mesh.
 TEST(WavefrontOBJ, FuzzCrashSkinWeightJointIdLoadsOrFailsClearly) {
-    const std::string path =
-        std::string(ALPHORN_SOURCE_DIR) + "/fuzz/corpus/obj_loader/crash_vw_huge_joint_id";
+    const std::string path = sourcePath("fuzz/corpus/obj_loader/crash_vw_huge_joint_id");
     PropertyList props("test (mesh type=\"obj\")");
     props.setString("filename", path);
     try {
@@ -219,8 +219,7 @@ TEST(WavefrontOBJ, FuzzCrashSkinWeightJointIdLoadsOrFailsClearly) {
 // also has a position of one number, "v 6.000000", which is refused first now; the bound itself
 // is tested with a well-formed file in ObjLinesTinyObjLoaderWouldMisreadAreRefused.)
 TEST(WavefrontOBJ, FuzzCrashVertexBeyondEmbreeRangeIsRefused) {
-    const std::string path = std::string(ALPHORN_SOURCE_DIR) +
-                             "/fuzz/corpus/obj_loader/crash_vertex_beyond_embree_range";
+    const std::string path = sourcePath("fuzz/corpus/obj_loader/crash_vertex_beyond_embree_range");
     PropertyList props("test (mesh type=\"obj\")");
     props.setString("filename", path);
     try {

@@ -1,6 +1,7 @@
 #include "common/scene/parser.h"
 
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
@@ -34,8 +35,7 @@ class ParserTest : public ::testing::Test {
         m_dir = std::filesystem::temp_directory_path() /
                 ("alphorn_parser_test_" + std::to_string(::getpid()));
         std::filesystem::create_directories(m_dir);
-        std::filesystem::copy_file(ALPHORN_SOURCE_DIR "/scenes/meshes/triangle.obj",
-                                   m_dir / "triangle.obj",
+        std::filesystem::copy_file(sourcePath("scenes/meshes/triangle.obj"), m_dir / "triangle.obj",
                                    std::filesystem::copy_options::overwrite_existing);
     }
     void TearDown() override { std::filesystem::remove_all(m_dir); }
@@ -436,7 +436,7 @@ TEST_F(ConfinedParserTest, SymbolicLinksLeadingOutAreRefused) {
 }
 
 TEST_F(ConfinedParserTest, EveryFileValuedPropertyIsConfined) {
-    const std::string texture = ALPHORN_SOURCE_DIR "/scenes/seed/textures/bumps_normal.png";
+    const std::string texture = sourcePath("scenes/seed/textures/bumps_normal.png");
     const std::string path = (m_bundle / "scenes/t.xml").string();
     std::ofstream(path) << sceneWith(
         "<mesh type=\"obj\"><string name=\"filename\" value=\"../meshes/triangle.obj\"/>\n"

@@ -5,6 +5,7 @@
 #include "common/render/local_render.h"
 #include "common/scene/scene.h"
 #include "common/texture/plugin_testing.h"
+#include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 
@@ -15,7 +16,7 @@ TEST(TexturedAlbedo, EnclosureShowsExactlyTheAlbedo) {
     if (!ObjectFactory::has(ObjectKind::Integrator, "direct_mats") ||
         !ObjectFactory::has(ObjectKind::Emitter, "area"))
         GTEST_SKIP() << "needs direct_mats and the area emitter";
-    const std::string meshes = std::string(ALPHORN_SOURCE_DIR) + "/scenes/meshes/";
+    const std::string meshes = sourcePath("scenes/meshes/");
     const std::string xml = absl::StrFormat(R"(<scene>
   <integrator type="direct_mats"/>
   <camera type="perspective">

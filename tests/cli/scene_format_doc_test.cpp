@@ -2,6 +2,7 @@
 // plugin registry must appear in it, either in a heading that names both ("## bsdf `normalmap`")
 // or as a table row "| `type` |" under a heading that names the tag ("## bsdf", "### medium").
 #include "common/core/object.h"
+#include "tests/support/source_tree.h"
 
 #include <absl/strings/match.h>
 #include <gtest/gtest.h>
@@ -67,7 +68,7 @@ std::set<std::pair<std::string, std::string>> documentedPairs(const std::string&
 }
 
 TEST(SceneFormatDoc, ListsEveryRegisteredTagAndType) {
-    const auto pairs = documentedPairs(ALPHORN_SOURCE_DIR "/docs/scene-format.md");
+    const auto pairs = documentedPairs(sourcePath("docs/scene-format.md"));
     int registered = 0;
     for (ObjectKind kind : kDocumentedKinds)
         for (const std::string& type : ObjectFactory::typesOf(kind)) {
@@ -84,7 +85,7 @@ TEST(SceneFormatDoc, ListsEveryRegisteredTagAndType) {
 // Every parameter a plugin reads when built from an empty property list (up to the first
 // required one it misses) appears in the document as `name`.
 TEST(SceneFormatDoc, NamesEveryParameterThePluginsRead) {
-    std::ifstream file(ALPHORN_SOURCE_DIR "/docs/scene-format.md");
+    std::ifstream file(sourcePath("docs/scene-format.md"));
     std::stringstream text;
     text << file.rdbuf();
     const std::string doc = text.str();

@@ -247,18 +247,23 @@ grpc::Status FarmClient::callRetrying(const std::string& what,
                                       const std::function<grpc::Status()>& attempt,
                                       const std::string& deadlineRetryNote) {
     std::optional<Clock::time_point> lostAt;
+    bool wentAway = false;  // some attempt broke because of the coordinator (not a time limit)
     for (;;) {
         const grpc::Status status = attempt();
         const bool deadlinePassed = status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED &&
                                     !deadlineRetryNote.empty();
         if (!callBrokenByCoordinator(status) && !deadlinePassed) {
             if (lostAt)
-                note(absl::StrFormat("%s: reconnected to the coordinator after %.1f s", what,
-                                     secondsSince(*lostAt)));
+                note(wentAway ? absl::StrFormat("%s: reconnected to the coordinator after %.1f s",
+                                                what, secondsSince(*lostAt))
+                              : absl::StrFormat("%s: answered when asked again, %.1f s after "
+                                                "the time limit passed",
+                                                what, secondsSince(*lostAt)));
             return status;
         }
-        const bool first = !lostAt;
-        if (first) lostAt = Clock::now();
+        const bool first = !wentAway && !deadlinePassed;
+        if (!deadlinePassed) wentAway = true;
+        if (!lostAt) lostAt = Clock::now();
         if (deadlinePassed) {
             // Said each time: every such attempt waited out a whole time limit.
             note(absl::StrFormat(

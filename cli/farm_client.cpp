@@ -63,7 +63,10 @@ void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options) {
         "CA certificate to verify a TLS coordinator (or $ALPHORN_TLS_CA, or the config file)");
     sub->add_option("--reconnect-seconds", options.reconnectSeconds,
                     "How long to wait for an unreachable or restarting coordinator before giving "
-                    "up")
+                    "up: at the start, and after a call the coordinator broke by going away, "
+                    "which is then asked again (every command but retry and delete; submit "
+                    "asks again with its submission id, also when a call outlasts its time "
+                    "limit, and never creates a second job)")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 86400.0));
     sub->add_flag("--json", options.json, "Machine-readable JSON on stdout");

@@ -32,7 +32,7 @@ struct FarmConnectionOptions {
     std::string tlsCa;        // default: $ALPHORN_TLS_CA; nonempty means TLS
     bool json = false;
     // How long a client waits for an unreachable coordinator (at the start, or after losing it
-    // while watching a job) before it gives up.
+    // in a call it asks again, or while watching a job) before it gives up.
     double reconnectSeconds = 60.0;
 };
 

@@ -531,6 +531,8 @@ TEST_F(CoordinatorJob, AJobRowChangedAfterSubmissionFailsThatJobOnly) {
         EXPECT_EQ(coordinator.listJobs(damaged).at(0).state(), v1::JOB_STATE_FAILED);
         EXPECT_EQ(coordinator.listJobs(healthy).at(0).state(), v1::JOB_STATE_DONE);
         EXPECT_EQ(coordinator.snapshot(healthy, false).film.serialize(), localFilm());
+        const std::string refused = refusal([&] { coordinator.retry(damaged); });
+        EXPECT_NE(refused.find("its record could not be resumed"), std::string::npos) << refused;
         coordinator.stop();
     }
     // Failed for good: the next start keeps the job failed with the same reason.

@@ -85,10 +85,9 @@ std::string Coordinator::recordDamage(const JobRow& row, const std::string& data
     // size, say) that is no render of the submitted scene, and call it done.
     return absl::StrFormat(
         "job %u's record is damaged: its fixed fields (scene bundle, settings, image size, now "
-        "%dx%d, "
-        "filter border, creation time, submission id) differ from those it was submitted with "
-        "(their digest in jobs.record_sha256 of %s does not match); the job is not resumed from "
-        "a record that may not be its own: submit the scene again",
+        "%dx%d, filter border, creation time, submission id) differ from those it was submitted "
+        "with (their digest in jobs.record_sha256 of %s does not match); the job is not resumed "
+        "from a record that may not be its own: submit the scene again",
         row.id, row.width, row.height, database);
 }
 

@@ -63,7 +63,10 @@ void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options) {
         "CA certificate to verify a TLS coordinator (or $ALPHORN_TLS_CA, or the config file)");
     sub->add_option("--reconnect-seconds", options.reconnectSeconds,
                     "How long to wait for an unreachable or restarting coordinator before giving "
-                    "up")
+                    "up: at the start, and after a call the coordinator broke by going away, "
+                    "which is then asked again (every command but retry and delete; submit "
+                    "asks again with its submission id, also when a call outlasts its time "
+                    "limit, and never creates a second job)")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 86400.0));
     sub->add_flag("--json", options.json, "Machine-readable JSON on stdout");
@@ -106,6 +109,14 @@ bool callBrokenByCoordinator(const grpc::Status& status) {
 // a stream it closed while the job was still running.
 bool coordinatorWentAway(const grpc::Status& status) {
     return status.ok() || callBrokenByCoordinator(status);
+}
+
+// The time limit of SubmitJob's first attempt: a minute, as every unary call has. Test hook
+// (documented in docs/operations.md): ALPHORN_TEST_SUBMIT_TIME_LIMIT_MS=N sets it to N ms, so
+// integration tests can let it pass while the coordinator works on the submission.
+std::chrono::milliseconds submitTimeLimit() {
+    const std::string limit = fromEnvironment("ALPHORN_TEST_SUBMIT_TIME_LIMIT_MS");
+    return std::chrono::milliseconds(limit.empty() ? 60000 : std::max(1, std::atoi(limit.c_str())));
 }
 
 }  // namespace
@@ -236,18 +247,33 @@ void FarmClient::awaitCoordinatorBack(Clock::time_point lostAt, bool pause) {
 }
 
 grpc::Status FarmClient::callRetrying(const std::string& what,
-                                      const std::function<grpc::Status()>& attempt) {
+                                      const std::function<grpc::Status()>& attempt,
+                                      const std::string& deadlineRetryNote) {
     std::optional<Clock::time_point> lostAt;
+    bool wentAway = false;  // some attempt broke because of the coordinator (not a time limit)
     for (;;) {
         const grpc::Status status = attempt();
-        if (!callBrokenByCoordinator(status)) {
+        const bool deadlinePassed = status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED &&
+                                    !deadlineRetryNote.empty();
+        if (!callBrokenByCoordinator(status) && !deadlinePassed) {
             if (lostAt)
-                note(absl::StrFormat("%s: reconnected to the coordinator after %.1f s", what,
-                                     secondsSince(*lostAt)));
+                note(wentAway ? absl::StrFormat("%s: reconnected to the coordinator after %.1f s",
+                                                what, secondsSince(*lostAt))
+                              : absl::StrFormat("%s: answered when asked again, %.1f s after "
+                                                "the time limit passed",
+                                                what, secondsSince(*lostAt)));
             return status;
         }
-        if (!lostAt) {
-            lostAt = Clock::now();
+        const bool first = !wentAway && !deadlinePassed;
+        if (!deadlinePassed) wentAway = true;
+        if (!lostAt) lostAt = Clock::now();
+        if (deadlinePassed) {
+            // Said each time: every such attempt waited out a whole time limit.
+            note(absl::StrFormat(
+                "%s: no answer within the call's time limit (%s); %s (giving up "
+                "after %.0f s)",
+                what, status.error_message(), deadlineRetryNote, m_reconnectSeconds));
+        } else if (first) {
             note(absl::StrFormat(
                 "%s: the coordinator went away or cannot answer (%s); waiting for it (giving up "
                 "after %.0f s)",
@@ -258,6 +284,11 @@ grpc::Status FarmClient::callRetrying(const std::string& what,
         if (Clock::now() >= reconnectDeadline(*lostAt)) return status;
         awaitCoordinatorBack(*lostAt, true);
     }
+}
+
+void FarmClient::callChecked(const std::string& what, const char* rpc,
+                             const std::function<grpc::Status()>& attempt) {
+    check(callRetrying(what, attempt), rpc);
 }
 
 std::unique_ptr<grpc::ClientContext> FarmClient::context(std::chrono::milliseconds timeout) const {
@@ -339,21 +370,32 @@ v1::JobStatus FarmClient::submit(const std::string& scenePath, const v1::JobSett
     // restarted after creating the job) gives that job when asked again, not a second one.
     request.set_submission_id(farm::generateToken().substr(0, 32));
     v1::SubmitJobResponse response;
+    // Loading a large scene can outlast the call's time limit while the coordinator goes on.
+    // Asking again with the same submission id is safe: the coordinator gives the job the
+    // first call created, or hands the job of a first call still loading to this one, and
+    // never creates a second. Each such attempt may wait twice as long as the one before.
+    std::chrono::milliseconds timeLimit = submitTimeLimit();
     const auto submitOnce = [&] {
         response.Clear();
-        return m_stub->SubmitJob(context().get(), request, &response);
+        const grpc::Status status = m_stub->SubmitJob(context(timeLimit).get(), request, &response);
+        if (status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) timeLimit *= 2;
+        return status;
     };
-    // Given up on a coordinator that went away: it may have created the job before it did.
+    // Given up on a coordinator that went away or did not answer: it may have created the job.
     const char* unknownOutcome =
         "; the job may have been created before the coordinator went away: `alphorn status` "
         "lists the jobs";
     grpc::Status submitted;
     try {
-        submitted = callRetrying("submitting the job", submitOnce);
+        submitted = callRetrying(
+            "submitting the job", submitOnce,
+            "the coordinator may still be loading the scene: asking again with the same "
+            "submission id, which gives the job the first call creates and never a second one");
     } catch (const Error& e) {
         fail("%s%s", e.what(), unknownOutcome);
     }
-    if (callBrokenByCoordinator(submitted))
+    if (callBrokenByCoordinator(submitted) ||
+        submitted.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED)
         fail("SubmitJob: %s%s", submitted.error_message(), unknownOutcome);
     check(submitted, "SubmitJob");
     return response.status();
@@ -432,20 +474,24 @@ std::string FarmClient::getImage(uint64_t jobId, v1::ImageFormat format, bool pr
     request.set_job_id(jobId);
     request.set_format(format);
     request.set_preview(preview);
-    auto ctx = context(std::chrono::milliseconds(600 * 1000));
-    auto reader = m_stub->GetImage(ctx.get(), request);
     std::string bytes;
-    bool first = true;
-    farm::receiveChunks<grpc::ClientReader<v1::ImageChunk>, v1::ImageChunk>(
-        *reader, bytes, [&](const v1::ImageChunk& chunk) {
-            if (first && header) {
-                *header = chunk;
-                header->clear_data();
-            }
-            first = false;
-            return true;
-        });
-    check(reader->Finish(), "GetImage");
+    // A download broken by a coordinator restart starts again from its first byte.
+    callChecked(absl::StrFormat("fetching job %u's image", jobId), "GetImage", [&] {
+        auto ctx = context(std::chrono::milliseconds(600 * 1000));
+        auto reader = m_stub->GetImage(ctx.get(), request);
+        bytes.clear();
+        bool first = true;
+        farm::receiveChunks<grpc::ClientReader<v1::ImageChunk>, v1::ImageChunk>(
+            *reader, bytes, [&](const v1::ImageChunk& chunk) {
+                if (first && header) {
+                    *header = chunk;
+                    header->clear_data();
+                }
+                first = false;
+                return true;
+            });
+        return reader->Finish();
+    });
     return bytes;
 }
 

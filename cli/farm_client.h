@@ -32,7 +32,7 @@ struct FarmConnectionOptions {
     std::string tlsCa;        // default: $ALPHORN_TLS_CA; nonempty means TLS
     bool json = false;
     // How long a client waits for an unreachable coordinator (at the start, or after losing it
-    // while watching a job) before it gives up.
+    // in a call it asks again, or while watching a job) before it gives up.
     double reconnectSeconds = 60.0;
 };
 
@@ -62,6 +62,21 @@ class FarmClient {
     // Throws Error with the status message (and the RPC's name) unless `status` is OK.
     static void check(const grpc::Status& status, const char* what);
 
+    // Runs `attempt` (one try of a call that may be repeated without harm: it reads, or sets
+    // what a second try sets alike) until it returns a status other than one of a coordinator
+    // that went away or cannot answer for the moment (UNAVAILABLE, CANCELLED, ABORTED), which
+    // it returns; after such a status it says once on stderr, naming `what`, that it waits, and
+    // waits as watch() does. Gives up, returning the last status or throwing Error,
+    // --reconnect-seconds after the first failure. With a nonempty `deadlineRetryNote`,
+    // DEADLINE_EXCEEDED is retried too (a call the coordinator may still be working on), and
+    // the note, said on stderr each time, tells why asking again is safe.
+    grpc::Status callRetrying(const std::string& what, const std::function<grpc::Status()>& attempt,
+                              const std::string& deadlineRetryNote = "");
+    // callRetrying(), then check() with the RPC's name `rpc`: the way the farm commands whose
+    // call may be repeated make it, so that they outlast a coordinator restart.
+    void callChecked(const std::string& what, const char* rpc,
+                     const std::function<grpc::Status()>& attempt);
+
     // Gathers the scene's bundle, uploads the blobs the coordinator lacks, submits the job.
     v1::JobStatus submit(const std::string& scenePath, const v1::JobSettings& settings, bool quiet);
     // Follows the job until it ends; shows a progress bar unless quiet. Returns the last status.
@@ -83,13 +98,6 @@ class FarmClient {
     // connections again (after a short pause, with `pause`), until reconnectDeadline(lostAt);
     // throws Error then. What watch() and callRetrying() share.
     void awaitCoordinatorBack(std::chrono::steady_clock::time_point lostAt, bool pause);
-    // Runs `attempt` (one try of a call that may be repeated without harm) until it returns a
-    // status other than one of a coordinator that went away or cannot answer for the moment
-    // (UNAVAILABLE, CANCELLED, ABORTED), which it returns; after such a status it says once on
-    // stderr, naming `what`, that it waits, and waits as watch() does. Gives up, returning the
-    // last status or throwing Error, --reconnect-seconds after the first failure.
-    grpc::Status callRetrying(const std::string& what,
-                              const std::function<grpc::Status()>& attempt);
     // Asks which of the bundle's blobs the coordinator lacks and uploads those; on failure
     // returns the status and sets `failedCall` to the call's name.
     grpc::Status uploadMissingBlobs(const farm::Bundle& bundle, bool quiet,

@@ -227,8 +227,9 @@ Command addStatusCommand(CLI::App& app) {
                 v1::ListJobsRequest request;
                 request.set_job_id(*jobId);
                 v1::ListJobsResponse response;
-                FarmClient::check(
-                    client.stub().ListJobs(client.context().get(), request, &response), "ListJobs");
+                client.callChecked("listing the jobs", "ListJobs", [&] {
+                    return client.stub().ListJobs(client.context().get(), request, &response);
+                });
                 if (connection->json) {
                     std::cout << (*jobId ? toJson(response.jobs(0)) : toJson(response)) << "\n";
                 } else if (response.jobs().empty()) {
@@ -251,9 +252,11 @@ Command addCancelCommand(CLI::App& app) {
                 v1::CancelJobRequest request;
                 request.set_job_id(*jobId);
                 v1::CancelJobResponse response;
-                FarmClient::check(
-                    client.stub().CancelJob(client.context().get(), request, &response),
-                    "CancelJob");
+                // Cancelling again is harmless: a job that ended (cancelled by the attempt
+                // whose answer a coordinator restart lost, say) is answered with its status.
+                client.callChecked(absl::StrFormat("cancelling job %u", *jobId), "CancelJob", [&] {
+                    return client.stub().CancelJob(client.context().get(), request, &response);
+                });
                 if (connection->json)
                     std::cout << toJson(response.status()) << "\n";
                 else
@@ -297,9 +300,9 @@ Command addWorkersCommand(CLI::App& app) {
                 v1::ListWorkersRequest request;
                 request.set_include_dead(*all);
                 v1::ListWorkersResponse response;
-                FarmClient::check(
-                    client.stub().ListWorkers(client.context().get(), request, &response),
-                    "ListWorkers");
+                client.callChecked("listing the workers", "ListWorkers", [&] {
+                    return client.stub().ListWorkers(client.context().get(), request, &response);
+                });
                 if (connection->json) {
                     std::cout << toJson(response) << "\n";
                     return kExitOk;
@@ -396,9 +399,14 @@ std::vector<Command> addControlCommands(CLI::App& app) {
                 request.set_job_id(jobId);
                 request.set_paused(pause);
                 v1::JobControlResponse response;
-                FarmClient::check(
-                    client.stub().SetJobPaused(client.context().get(), request, &response),
-                    "SetJobPaused");
+                // Pausing a paused job (or resuming a running one) changes nothing: safe to
+                // ask again after a coordinator restart.
+                client.callChecked(
+                    absl::StrFormat("%s job %u", pause ? "pausing" : "resuming", jobId),
+                    "SetJobPaused", [&] {
+                        return client.stub().SetJobPaused(client.context().get(), request,
+                                                          &response);
+                    });
                 said = pause
                            ? absl::StrFormat("job %u paused; units out, which may still finish: %u",
                                              jobId, response.status().units_leased())
@@ -418,9 +426,10 @@ std::vector<Command> addControlCommands(CLI::App& app) {
             request.set_job_id(jobId);
             request.set_priority(*priority);
             v1::JobControlResponse response;
-            FarmClient::check(
-                client.stub().SetJobPriority(client.context().get(), request, &response),
-                "SetJobPriority");
+            client.callChecked(
+                absl::StrFormat("changing job %u's priority", jobId), "SetJobPriority", [&] {
+                    return client.stub().SetJobPriority(client.context().get(), request, &response);
+                });
             said = absl::StrFormat("job %u: priority %d", jobId, *priority);
             return response.status();
         }));
@@ -485,9 +494,12 @@ std::vector<Command> addControlCommands(CLI::App& app) {
                      request.set_job_id(*jobId);
                      request.set_after_sequence(last);
                      v1::GetJobLogResponse response;
-                     FarmClient::check(
-                         client.stub().GetJobLog(client.context().get(), request, &response),
-                         "GetJobLog");
+                     client.callChecked(absl::StrFormat("reading job %u's log", *jobId),
+                                        "GetJobLog", [&] {
+                                            response.Clear();
+                                            return client.stub().GetJobLog(client.context().get(),
+                                                                           request, &response);
+                                        });
                      if (connection->json && !*follow) {
                          std::cout << toJson(response) << "\n";
                          return kExitOk;
@@ -532,21 +544,25 @@ std::vector<Command> addControlCommands(CLI::App& app) {
                 "unit and exits.");
         sub->add_option("worker", *workerId, "Worker id (from `alphorn workers`)")->required();
         addConnectionOptions(sub, *connection);
-        commands.push_back({sub, [=] {
-                                FarmClient client(*connection);
-                                v1::SetWorkerDrainingRequest request;
-                                request.set_worker_id(*workerId);
-                                request.set_draining(drain);
-                                v1::SetWorkerDrainingResponse response;
-                                FarmClient::check(client.stub().SetWorkerDraining(
-                                                      client.context().get(), request, &response),
-                                                  "SetWorkerDraining");
-                                if (connection->json)
-                                    std::cout << toJson(response.worker()) << "\n";
-                                else
-                                    printWorkerTable({response.worker()});
-                                return kExitOk;
-                            }});
+        commands.push_back(
+            {sub, [=] {
+                 FarmClient client(*connection);
+                 v1::SetWorkerDrainingRequest request;
+                 request.set_worker_id(*workerId);
+                 request.set_draining(drain);
+                 v1::SetWorkerDrainingResponse response;
+                 client.callChecked(
+                     absl::StrFormat("%s worker %u", drain ? "draining" : "undraining", *workerId),
+                     "SetWorkerDraining", [&] {
+                         return client.stub().SetWorkerDraining(client.context().get(), request,
+                                                                &response);
+                     });
+                 if (connection->json)
+                     std::cout << toJson(response.worker()) << "\n";
+                 else
+                     printWorkerTable({response.worker()});
+                 return kExitOk;
+             }});
     }
     return commands;
 }

@@ -198,20 +198,34 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request,
     checkSubmissionId(request.submission_id());
     const SubmissionKey submission{request.settings().owner(), request.submission_id()};
     if (!request.submission_id().empty()) {
-        std::lock_guard lock(m_mutex);
-        if (const Job* earlier = submittedJobLocked(submission)) {
-            logInfo("job.submitted_again",
-                    {field("job", earlier->id), field("submission", request.submission_id())});
-            return statusLocked(*earlier);
+        std::unique_lock lock(m_mutex);
+        for (;;) {
+            if (const Job* earlier = submittedJobLocked(submission)) {
+                logInfo("job.submitted_again",
+                        {field("job", earlier->id), field("submission", request.submission_id())});
+                return statusLocked(*earlier);
+            }
+            auto [entry, first] = m_submissionsInProgress.try_emplace(submission);
+            if (first) {
+                entry->second = std::make_shared<SubmissionInProgress>();
+                break;
+            }
+            // A client that gave up on a slow scene load asks again: it waits for the first
+            // call (which creates the job for it) instead of loading the scene a second time.
+            // The entry is held, not looked up again: it may be gone, and another in its place.
+            const std::shared_ptr<SubmissionInProgress> inProgress = entry->second;
+            ++inProgress->waitingCalls;
+            m_submissionAdmitted.wait_for(lock, std::chrono::milliseconds(50));
+            --inProgress->waitingCalls;
+            if (callerGone && callerGone())
+                throw FarmError(Kind::CallerGone,
+                                absl::StrFormat("the client went away while submission %s was "
+                                                "being admitted by an earlier call",
+                                                request.submission_id()));
         }
-        if (!m_submissionsInProgress.insert(submission).second)
-            throw FarmError(Kind::Unavailable,
-                            absl::StrFormat("submission %s is still being admitted by an earlier "
-                                            "call; ask again to get its job",
-                                            request.submission_id()));
     }
     // Whatever the outcome, the submission is no longer in progress once this call returns:
-    // by then its job is listed, or it was refused and may be sent again.
+    // by then its job is listed, or it was refused and may be sent again (by a call waiting).
     struct InProgress {
         Coordinator& coordinator;
         const SubmissionKey& submission;
@@ -219,8 +233,16 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request,
             if (submission.second.empty()) return;
             std::lock_guard lock(coordinator.m_mutex);
             coordinator.m_submissionsInProgress.erase(submission);
+            coordinator.m_submissionAdmitted.notify_all();
         }
     } inProgress{*this, submission};
+    // Another call with this submission's id waits for its job.
+    auto awaited = [&] {
+        if (submission.second.empty()) return false;
+        std::lock_guard lock(m_mutex);
+        auto entry = m_submissionsInProgress.find(submission);
+        return entry != m_submissionsInProgress.end() && entry->second->waitingCalls > 0;
+    };
 
     const AdmissionLimits limits{m_options.maxBundleBytes, m_options.maxImagePixels,
                                  m_options.maxPasses, m_options.defaultTileSize,
@@ -236,8 +258,9 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request,
     // Loading a large scene can outlast the client's deadline. A job created for a caller that
     // is gone would run with nobody told its id, while the caller reports a failure and is
     // likely to submit again; a client that is still there asks again with the same submission
-    // id and gets the job created then.
-    if (callerGone && callerGone())
+    // id and gets the job created then, or, asking while this call loads, the job this call
+    // creates for it.
+    if (callerGone && callerGone() && !awaited())
         refuse(Kind::CallerGone,
                "the client went away (deadline passed or connection lost) while the scene "
                "loaded; no job was created");

@@ -105,9 +105,11 @@ class Coordinator {
     // Client side.
     // Admits and queues a job. A request whose submission_id and owner are those of a listed
     // job returns that job's status and creates nothing (a client asking again after losing the
-    // answer); one whose id an earlier call is still admitting is refused with Unavailable.
-    // `callerGone`, asked once the scene has loaded and before anything is stored, refuses the
-    // job with CallerGone when it says nobody waits for the answer any more.
+    // answer); one whose id an earlier call is still admitting waits for that call and returns
+    // its job, or admits the job itself should that call refuse it. `callerGone`, asked while
+    // such a call waits and once the scene has loaded (before anything is stored), refuses the
+    // job with CallerGone when it says nobody waits for the answer any more, unless another
+    // call with the same id waits for the job: that one gets it.
     v1::JobStatus submit(const v1::SubmitJobRequest& request,
                          const std::function<bool()>& callerGone = {});
     std::vector<v1::JobStatus> listJobs(uint64_t jobId);  // throws NotFound for an unknown id
@@ -219,6 +221,10 @@ class Coordinator {
     void resume();
     // Rebuilds one job from its stored row and checkpoint; throws Error on a damaged record.
     void resumeJob(Job& job, const JobRow& row);
+    // Why the row no longer holds its job as submitted (its fixed fields differ from their
+    // digest, JobStore::recordDigest), naming the job and `database`; empty when they agree or
+    // the row has no digest.
+    static std::string recordDamage(const JobRow& row, const std::string& database);
     // Copies `source`, the film of job `jobId`, into `target` (its shape) one band of rows
     // per lock hold; false when the job released that film meanwhile, NotFound when it was
     // deleted.
@@ -282,9 +288,14 @@ class Coordinator {
     std::unique_ptr<WorkerRegistry> m_workers;  // made after m_scheduler, which it informs
     std::unordered_map<std::string, double> m_blobsTouchedAt;  // sha256 -> wall clock
     uint64_t m_memoryInUse = 0;                                // sum of running jobs' memoryBytes
-    // Submissions with an id being admitted right now (loading their scene): a second call
-    // with the same id must not admit the job again.
-    std::set<SubmissionKey> m_submissionsInProgress;
+    // Submissions with an id being admitted right now (loading their scene), with how many
+    // later calls with the same id wait for that admission: a second call must not admit the
+    // job again, and a first call whose caller is gone still creates the job for a waiting one.
+    struct SubmissionInProgress {
+        int waitingCalls = 0;
+    };
+    std::map<SubmissionKey, std::shared_ptr<SubmissionInProgress>> m_submissionsInProgress;
+    std::condition_variable m_submissionAdmitted;  // an entry left m_submissionsInProgress
     double m_nextCheckpoint = 0, m_nextPrune = 0;  // monotonic
     bool m_stopping = false, m_stopped = false;
     std::thread m_background;

@@ -20,6 +20,7 @@
 
 #include <csignal>
 
+#include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -459,6 +460,87 @@ TEST_F(CoordinatorJob, NoJobIsCreatedForACallerThatIsGone) {
     coordinator.stop();
 }
 
+// A client whose SubmitJob outlasted its time limit while the scene loaded asks again with the
+// same submission id while the first call still loads: the second call waits for the first,
+// which creates the job for it although its own caller is gone. One job, and both calls name it.
+TEST_F(CoordinatorJob, ASubmissionSentAgainWhileTheFirstLoadsGetsTheJobItCreates) {
+    Coordinator coordinator(m_options);
+    v1::SubmitJobRequest request = upload(coordinator);
+    request.set_submission_id("0123456789abcdef0123456789abcdef");
+    std::promise<void> firstLoaded;
+    std::atomic<bool> secondWaits{false};
+    auto first = std::async(std::launch::async, [&] {
+        return coordinator
+            .submit(request,
+                    [&] {
+                        // The scene has loaded: the caller gave up meanwhile and asks again.
+                        firstLoaded.set_value();
+                        EXPECT_TRUE(waitFor([&] { return secondWaits.load(); }))
+                            << "the second call did not wait for the first";
+                        return true;
+                    })
+            .job_id();
+    });
+    firstLoaded.get_future().wait();
+    const uint64_t second = coordinator
+                                .submit(request,
+                                        [&] {
+                                            secondWaits = true;
+                                            return false;
+                                        })
+                                .job_id();
+    EXPECT_EQ(first.get(), second);
+    EXPECT_EQ(coordinator.listJobs(0).size(), 1u);
+    coordinator.stop();
+}
+
+// A job row changed after submission (here its width, so that its checkpoint is refused for
+// its shape and it would be rendered again at a size that is not its scene's) fails that job at
+// start, saying its record is damaged; the other jobs resume and finish with their images.
+TEST_F(CoordinatorJob, AJobRowChangedAfterSubmissionFailsThatJobOnly) {
+    writeScene(R"(<integrator type="normals"/>)", 48, 32);
+    uint64_t damaged = 0, healthy = 0;
+    {
+        Coordinator coordinator(m_options);
+        damaged = coordinator.submit(upload(coordinator)).job_id();
+        healthy = coordinator.submit(upload(coordinator)).job_id();
+        const uint64_t worker = coordinator.registerWorker(thisBuild());
+        mergeOneUnit(coordinator, worker);
+        mergeOneUnit(coordinator, worker);
+        coordinator.stop();
+    }
+    {
+        StateDatabase db(m_options.stateDirectory + "/state.sqlite");
+        db.execute("UPDATE jobs SET width = 32 WHERE id = ?", {int64_t(damaged)});
+    }
+    std::string reason;
+    {
+        Coordinator coordinator(m_options);
+        const v1::JobStatus status = coordinator.listJobs(damaged).at(0);
+        reason = status.error();
+        EXPECT_EQ(status.state(), v1::JOB_STATE_FAILED);
+        EXPECT_EQ(
+            status.error().rfind("job " + std::to_string(damaged) + "'s record is damaged: ", 0),
+            0u)
+            << status.error();
+        EXPECT_NE(status.error().find(m_options.stateDirectory + "/state.sqlite"),
+                  std::string::npos)
+            << status.error();
+        EXPECT_EQ(coordinator.listJobs(healthy).at(0).state(), v1::JOB_STATE_RUNNING);
+        renderAllUnits(coordinator, coordinator.registerWorker(thisBuild()));
+        EXPECT_EQ(coordinator.listJobs(damaged).at(0).state(), v1::JOB_STATE_FAILED);
+        EXPECT_EQ(coordinator.listJobs(healthy).at(0).state(), v1::JOB_STATE_DONE);
+        EXPECT_EQ(coordinator.snapshot(healthy, false).film.serialize(), localFilm());
+        const std::string refused = refusal([&] { coordinator.retry(damaged); });
+        EXPECT_NE(refused.find("its record could not be resumed"), std::string::npos) << refused;
+        coordinator.stop();
+    }
+    // Failed for good: the next start keeps the job failed with the same reason.
+    Coordinator again(m_options);
+    EXPECT_EQ(again.listJobs(damaged).at(0).error(), reason);
+    again.stop();
+}
+
 TEST_F(CoordinatorJob, ASecondCoordinatorOnTheStateDirectoryIsRefused) {
     Coordinator first(m_options);
     try {
@@ -662,10 +744,11 @@ TEST_F(CoordinatorJob, AJobKeepsTheFilmLayoutItWasAdmittedWith) {
         EXPECT_TRUE(lease.unit().smaller_radius()) << "a progressive photon job keeps it";
         coordinator.stop();
     }
-    // What an older coordinator stored for the same job.
+    // What an older coordinator stored for the same job (without a record digest).
     sqlite3* db = nullptr;
     ASSERT_EQ(sqlite3_open((m_dir / "state/state.sqlite").c_str(), &db), SQLITE_OK);
-    ASSERT_EQ(sqlite3_exec(db, "UPDATE jobs SET smaller_radius = 0", nullptr, nullptr, nullptr),
+    ASSERT_EQ(sqlite3_exec(db, "UPDATE jobs SET smaller_radius = 0, record_sha256 = ''", nullptr,
+                           nullptr, nullptr),
               SQLITE_OK);
     sqlite3_close(db);
     Coordinator coordinator(m_options);
@@ -904,7 +987,8 @@ TEST_F(CoordinatorJob, WorkersNotSeenForTheKeepTimeAreForgotten) {
 }
 
 // A damaged job record fails that job with a message naming it and the database; the other
-// jobs resume and finish.
+// jobs resume and finish. The row has no record digest (as rows stored before it existed), so
+// what resumeJob() checks is what finds the damage.
 TEST_F(CoordinatorJob, ADamagedJobRecordFailsOnlyThatJob) {
     uint64_t damaged = 0, healthy = 0;
     {
@@ -917,7 +1001,7 @@ TEST_F(CoordinatorJob, ADamagedJobRecordFailsOnlyThatJob) {
         StateDatabase db(m_options.stateDirectory + "/state.sqlite");
         v1::JobDescription description;
         description.mutable_settings()->set_tile_size(16);  // passes 0: not a valid job
-        db.execute("UPDATE jobs SET description = ? WHERE id = ?",
+        db.execute("UPDATE jobs SET description = ?, record_sha256 = '' WHERE id = ?",
                    {description.SerializeAsString(), int64_t(damaged)});
     }
     Coordinator coordinator(m_options);
@@ -937,13 +1021,16 @@ TEST_F(CoordinatorJob, ADamagedJobRecordFailsOnlyThatJob) {
 
 // Damaged records fail their jobs at start and keep them (listed with the error, their files in
 // place) for the keep time: a state that is no job state, and sizes beyond this coordinator's
-// limits, which are refused before anything is allocated for them.
+// limits, which are refused before anything is allocated for them. The sizes are changed in rows
+// without a record digest (as rows stored before it existed), which only these checks guard.
 TEST_F(CoordinatorJob, DamagedRecordsFailTheirJobsAndKeepThem) {
     m_options.maxMemoryBytes = uint64_t(256) << 20;  // an 8000x8000 film needs ~8 GB
     const std::pair<std::string, std::string> damages[] = {
         {"UPDATE jobs SET state = 77 WHERE id = ?", "state 77 is not a job state"},
-        {"UPDATE jobs SET width = 100000, height = 100000 WHERE id = ?", "--max-image-pixels"},
-        {"UPDATE jobs SET width = 8000, height = 8000 WHERE id = ?", "--max-memory"},
+        {"UPDATE jobs SET width = 100000, height = 100000, record_sha256 = '' WHERE id = ?",
+         "--max-image-pixels"},
+        {"UPDATE jobs SET width = 8000, height = 8000, record_sha256 = '' WHERE id = ?",
+         "--max-memory"},
     };
     std::vector<uint64_t> damaged;
     uint64_t healthy = 0;

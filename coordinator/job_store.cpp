@@ -1,5 +1,10 @@
 #include "coordinator/job_store.h"
 
+#include "common/farm/sha256.h"
+
+#include <absl/strings/str_format.h>
+#include <google/protobuf/io/coded_stream.h>
+#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 #include <openssl/rand.h>
 
 namespace alphorn::coordinator {
@@ -55,6 +60,9 @@ constexpr AddedColumn kAddedColumns[] = {
     // The client's id of the submission that created the job (SubmitJobRequest.submission_id);
     // empty for jobs submitted without one, and for those stored before it existed.
     {"jobs", "submission_id", "TEXT NOT NULL DEFAULT ''"},
+    // JobStore::recordDigest() of the row at submission; empty for jobs stored before it existed,
+    // which are resumed unchecked.
+    {"jobs", "record_sha256", "TEXT NOT NULL DEFAULT ''"},
 };
 
 using Value = StateDatabase::Value;
@@ -98,15 +106,48 @@ std::string JobStore::leaseKey() {
     return key;
 }
 
+std::string JobStore::recordDigest(const JobRow& row) {
+    // The description without what may change (or is the row's id), serialized
+    // deterministically: the same fields give the same bytes whichever process wrote them.
+    v1::JobDescription fixed = row.description.value_or(v1::JobDescription());
+    fixed.set_job_id(0);
+    fixed.mutable_settings()->set_priority(0);
+    std::string description;
+    {
+        google::protobuf::io::StringOutputStream stream(&description);
+        google::protobuf::io::CodedOutputStream coded(&stream);
+        coded.SetSerializationDeterministic(true);
+        fixed.SerializeToCodedStream(&coded);
+    }
+    // Versioned and length-prefixed, so no two different rows hash the same text. The creation
+    // time as its exact bits (%a): SQLite keeps a REAL's every bit.
+    farm::Sha256 digest;
+    digest.update(absl::StrFormat("alphorn job record 1\n%d %d %d %d %a\n%u:%s\n%u:", row.width,
+                                  row.height, row.filterBorder, row.smallerRadius ? 1 : 0,
+                                  row.createdAt, row.submissionId.size(), row.submissionId,
+                                  description.size()));
+    digest.update(description);
+    return digest.finishHex();
+}
+
 uint64_t JobStore::addJob(const v1::JobDescription& description, int width, int height,
                           int filterBorder, double createdAt, bool smallerRadius,
                           const std::string& submissionId) {
+    JobRow fixed;
+    fixed.description = description;
+    fixed.width = width;
+    fixed.height = height;
+    fixed.filterBorder = filterBorder;
+    fixed.createdAt = createdAt;
+    fixed.smallerRadius = smallerRadius;
+    fixed.submissionId = submissionId;
     const auto rows = m_db.query(
         "INSERT INTO jobs(description, state, width, height, filter_border, created_at, "
-        "smaller_radius, submission_id) VALUES(?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+        "smaller_radius, submission_id, record_sha256) VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?) "
+        "RETURNING id",
         {description.SerializeAsString(), int64_t(v1::JOB_STATE_RUNNING), int64_t(width),
          int64_t(height), int64_t(filterBorder), createdAt, int64_t(smallerRadius ? 1 : 0),
-         submissionId});
+         submissionId, recordDigest(fixed)});
     const uint64_t id = uint64_t(StateDatabase::integer(rows.at(0).at(0)));
     // The stored description carries its id too, so workers told of a resumed job load that
     // job's scene and no other. (No transaction: the connection is shared between threads.)
@@ -130,7 +171,8 @@ std::vector<JobRow> JobStore::jobs() {
     std::vector<JobRow> result;
     for (const auto& row : m_db.query("SELECT id, description, state, error, width, height, "
                                       "filter_border, created_at, finished_at, paused, "
-                                      "smaller_radius, submission_id FROM jobs")) {
+                                      "smaller_radius, submission_id, record_sha256 FROM "
+                                      "jobs")) {
         JobRow job;
         job.id = uint64_t(StateDatabase::integer(row[0]));
         v1::JobDescription description;
@@ -149,6 +191,7 @@ std::vector<JobRow> JobStore::jobs() {
         job.paused = StateDatabase::integer(row[9]) != 0;
         job.smallerRadius = StateDatabase::integer(row[10]) != 0;
         job.submissionId = StateDatabase::text(row[11]);
+        job.recordSha256 = StateDatabase::text(row[12]);
         result.push_back(std::move(job));
     }
     return result;

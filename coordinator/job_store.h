@@ -31,6 +31,9 @@ struct JobRow {
     bool paused = false;    // a client paused it (no new leases)
     // The client's SubmitJobRequest.submission_id; empty when it sent none.
     std::string submissionId;
+    // JobStore::recordDigest() of the row as it was submitted; empty for rows stored before
+    // the digest existed (or whose submission failed to store it), which are not checked.
+    std::string recordSha256;
 };
 
 struct UnitAttemptsRow {
@@ -62,6 +65,13 @@ class JobStore {
                     double createdAt, bool smallerRadius = false,
                     const std::string& submissionId = "");
     std::vector<JobRow> jobs();
+    // A digest (SHA-256, hex) of what a job's row holds that never changes after submission:
+    // the description (scene bundle, settings but the priority, photon radius schedule), the
+    // image size, filter border, smaller radius, creation time and submission id. What a
+    // client may change (priority, pause) and the job's state are left out. Stored by addJob();
+    // a row whose digest differs from the one stored with it was changed outside the
+    // coordinator. Needs the row's description (nullopt: empty).
+    static std::string recordDigest(const JobRow& row);
     // Records that a job ended (or, with JOB_STATE_RUNNING and finishedAt 0, runs again).
     void setJobState(uint64_t jobId, v1::JobState state, const std::string& error,
                      double finishedAt);

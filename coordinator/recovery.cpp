@@ -25,17 +25,24 @@ void Coordinator::resume() {
         job->createdAt = row.createdAt;
         job->finishedAt = row.finishedAt;
         job->submissionId = row.submissionId;
+        // What the row says, also for a job that fails below: its name and owner are listed.
+        if (row.description) job->description = *row.description;
         try {
             job->events = EventLog(m_store.jobLog(job->id));
         } catch (const StorageError& e) {
             logWarning("job.log_unreadable", {field("job", job->id), field("error", e.what())});
         }
-        try {
-            resumeJob(*job, row);
-        } catch (const std::exception& e) {
-            // One damaged record fails its job, never the coordinator or the other jobs.
-            const std::string message =
-                absl::StrFormat("cannot resume job %u from %s: %s", job->id, database, e.what());
+        // One damaged record fails its job, never the coordinator or the other jobs.
+        std::string message = recordDamage(row, database);
+        if (message.empty()) {
+            try {
+                resumeJob(*job, row);
+            } catch (const std::exception& e) {
+                message = absl::StrFormat("cannot resume job %u from %s: %s", job->id, database,
+                                          e.what());
+            }
+        }
+        if (!message.empty()) {
             logWarning("job.unresumable", {field("job", job->id), field("error", message)});
             job->grid = farm::JobGrid();
             job->film = std::make_unique<JobFilm>(job->grid, "");
@@ -66,6 +73,22 @@ void Coordinator::resume() {
         job->completing = true;
         finishJob(*job);
     }
+}
+
+std::string Coordinator::recordDamage(const JobRow& row, const std::string& database) {
+    // Rows stored before the digest existed have none: only the checks of resumeJob() apply.
+    if (row.recordSha256.empty() || !row.description ||
+        JobStore::recordDigest(row) == row.recordSha256)
+        return "";
+    // Which field changed the digest cannot tell; what it can tell is that the row no longer
+    // holds the job as submitted. Resuming it would render something (an image of another
+    // size, say) that is no render of the submitted scene, and call it done.
+    return absl::StrFormat(
+        "job %u's record is damaged: its fixed fields (scene bundle, settings, image size, now "
+        "%dx%d, filter border, creation time, submission id) differ from those it was submitted "
+        "with (their digest in jobs.record_sha256 of %s does not match); the job is not resumed "
+        "from a record that may not be its own: submit the scene again",
+        row.id, row.width, row.height, database);
 }
 
 void Coordinator::resumeJob(Job& job, const JobRow& row) {

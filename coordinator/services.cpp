@@ -9,12 +9,17 @@
 #include "common/farm/sha256.h"
 #include "coordinator/log.h"
 
+#include <absl/strings/str_split.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
+#include <set>
 #include <thread>
+#include <vector>
 
 namespace alphorn::coordinator {
 
@@ -53,6 +58,52 @@ grpc::Status toStatus(const std::exception& e) {
     return {grpc::StatusCode::INTERNAL, e.what()};
 }
 
+// Waits up to `delay` ms (a decimal number) or until the call is cancelled (its deadline
+// passed, the client went away, the server stopping).
+void waitUnlessCancelled(grpc::ServerContext& context, const char* delay) {
+    const auto until =
+        std::chrono::steady_clock::now() + std::chrono::milliseconds(std::atoi(delay));
+    while (std::chrono::steady_clock::now() < until && !context.IsCancelled())
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+}
+
+// Test hook (documented in docs/operations.md): ALPHORN_TEST_SUBMIT_ANSWER_DELAY_MS=N makes
+// the SubmitJob call that created a job wait up to N ms between creating it and answering, or
+// until the call is cancelled (its deadline passed, the server stopping), so integration tests
+// can restart the coordinator, or let the client's time limit pass, while the answer of a
+// created job is due. A call sent again that gets the job is answered at once. Nothing else
+// sets it.
+void delayAnswerIfTestHookSet(grpc::ServerContext& context, uint64_t jobId) {
+    const char* delay = std::getenv("ALPHORN_TEST_SUBMIT_ANSWER_DELAY_MS");
+    if (!delay) return;
+    static std::mutex mutex;
+    static std::set<uint64_t> delayed;
+    {
+        std::lock_guard lock(mutex);
+        if (!delayed.insert(jobId).second) return;
+    }
+    logWarning("test_hook.submit_answer_delay",
+               {field("hook", "ALPHORN_TEST_SUBMIT_ANSWER_DELAY_MS"), field("job", jobId),
+                field("ms", delay)});
+    waitUnlessCancelled(context, delay);
+}
+
+// Test hook (documented in docs/operations.md): ALPHORN_TEST_ANSWER_DELAY_MS=N with
+// ALPHORN_TEST_ANSWER_DELAY_RPCS=NAME,NAME,... makes those client calls wait up to N ms after
+// doing their work and before answering (a streaming call: before its status), or until the
+// call is cancelled, so integration tests can restart the coordinator while their answer is
+// due. Nothing else sets them.
+void delayRpcAnswerIfTestHookSet(grpc::ServerContext& context, const char* rpc) {
+    const char* delay = std::getenv("ALPHORN_TEST_ANSWER_DELAY_MS");
+    const char* rpcs = std::getenv("ALPHORN_TEST_ANSWER_DELAY_RPCS");
+    if (!delay || !rpcs) return;
+    const std::vector<std::string> names = absl::StrSplit(rpcs, ',');
+    if (std::find(names.begin(), names.end(), rpc) == names.end()) return;
+    logWarning("test_hook.answer_delay", {field("hook", "ALPHORN_TEST_ANSWER_DELAY_MS"),
+                                          field("rpc", rpc), field("ms", delay)});
+    waitUnlessCancelled(context, delay);
+}
+
 // Runs `body` after the token check, turning exceptions into statuses.
 template <typename Body>
 grpc::Status guarded(grpc::ServerContext* context, const std::string& token, const char* rpc,
@@ -64,7 +115,9 @@ grpc::Status guarded(grpc::ServerContext* context, const std::string& token, con
         return auth;
     }
     try {
-        return body();
+        grpc::Status status = body();
+        if (status.ok()) delayRpcAnswerIfTestHookSet(*context, rpc);
+        return status;
     } catch (const std::exception& e) {
         return toStatus(e);
     }
@@ -82,22 +135,6 @@ bool streamBytes(grpc::ServerWriter<Chunk>* writer, const std::string& bytes,
             return writer->Write(chunk);
         },
         farm::kChunkBytes);
-}
-
-// Test hook (documented in docs/operations.md): ALPHORN_TEST_SUBMIT_ANSWER_DELAY_MS=N makes
-// SubmitJob wait up to N ms between creating the job and answering, or until the call is
-// cancelled (the server stopping), so integration tests can restart the coordinator while the
-// answer of a created job is due. Nothing else sets it.
-void delayAnswerIfTestHookSet(grpc::ServerContext& context, uint64_t jobId) {
-    const char* delay = std::getenv("ALPHORN_TEST_SUBMIT_ANSWER_DELAY_MS");
-    if (!delay) return;
-    logWarning("test_hook.submit_answer_delay",
-               {field("hook", "ALPHORN_TEST_SUBMIT_ANSWER_DELAY_MS"), field("job", jobId),
-                field("ms", delay)});
-    const auto until =
-        std::chrono::steady_clock::now() + std::chrono::milliseconds(std::atoi(delay));
-    while (std::chrono::steady_clock::now() < until && !context.IsCancelled())
-        std::this_thread::sleep_for(std::chrono::milliseconds(10));
 }
 
 }  // namespace

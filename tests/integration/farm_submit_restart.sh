@@ -48,4 +48,53 @@ start_hooked_coordinator "127.0.0.1:$PORT"
 submit_across_restart sigkill KILL 2
 grep -q "event=job.submitted_again" "$WORK/coordinator.log" ||
     fail "the coordinator did not log the submission sent again"
+
+# The other commands whose call may be repeated, each in flight (its answer held back by a
+# test hook) when the coordinator is killed: they wait for it, ask again and succeed. Cancel is
+# asked again after the first call cancelled the job. A submit whose answer outlasts the
+# client's time limit (1 s) asks again with its submission id and gets the job the first call
+# created.
+kill -9 "$WORKER_PID"
+kill -TERM "$COORDINATOR_PID"
+wait "$COORDINATOR_PID" || true
+ALPHORN_TEST_ANSWER_DELAY_MS=60000 ALPHORN_TEST_ANSWER_DELAY_RPCS=ListJobs,CancelJob,GetImage,ListWorkers,GetJobLog \
+    start_hooked_coordinator "127.0.0.1:$PORT"
+ALPHORN_TEST_SUBMIT_TIME_LIMIT_MS=1000 "$ALPHORN" submit "$SCENES/farm_normals.xml" --seed 4 --passes 4 \
+    >"$WORK/slow.out" 2>"$WORK/slow.err" || fail "a submit past its time limit failed: $(cat "$WORK/slow.err")"
+grep -q "submitting the job: no answer within the call's time limit .*same submission id" "$WORK/slow.err" ||
+    fail "submit did not say that it asks again after its time limit: $(cat "$WORK/slow.err")"
+slow_job=$(cat "$WORK/slow.out")
+pass "submit past its time limit: asked again with its submission id and got job $slow_job"
+
+in_flight() {
+    local name=$1
+    shift
+    "$ALPHORN" "$@" >"$WORK/$name.out" 2>"$WORK/$name.err" &
+    PIDS+=("$!")
+    eval "${name}_pid=$!"
+}
+in_flight status status
+in_flight cancel cancel "$slow_job"
+in_flight fetch fetch 1 -o "$WORK/fetched.exr"
+in_flight workers workers --all
+in_flight logs logs "$slow_job"
+all_held() { (($(grep -c "event=test_hook.answer_delay" "$WORK/coordinator.log" || true) >= 5)); }
+wait_until 60 all_held  # fetch asks for its PNG once its EXR came: after the restart
+kill -9 "$COORDINATOR_PID"
+wait "$COORDINATOR_PID" || true
+start_coordinator "127.0.0.1:$PORT"
+for name in status cancel fetch workers logs; do
+    pid_var="${name}_pid"
+    wait "${!pid_var}" || fail "alphorn $name across a coordinator restart failed: $(cat "$WORK/$name.err")"
+    grep -q ": the coordinator went away .*waiting for it" "$WORK/$name.err" ||
+        fail "alphorn $name did not say that it waits for the coordinator: $(cat "$WORK/$name.err")"
+    grep -q ": reconnected to the coordinator" "$WORK/$name.err" ||
+        fail "alphorn $name did not say that the coordinator was back: $(cat "$WORK/$name.err")"
+done
+grep -q "cancelled" "$WORK/cancel.out" || fail "cancel did not show the job cancelled: $(cat "$WORK/cancel.out")"
+[[ $(job_field "$slow_job" state) == JOB_STATE_CANCELLED ]] || fail "job $slow_job is not cancelled"
+cmp "$WORK/local.exr" "$WORK/fetched.exr" || fail "the EXR fetched across a restart differs from alphorn render"
+grep -q "submitted" "$WORK/logs.out" || fail "logs printed no events: $(cat "$WORK/logs.out")"
+(($(job_count) == 3)) || fail "$(job_count) jobs after the submit past its time limit, expected 3"
+pass "status, cancel (asked again after it cancelled), fetch, workers and logs across a coordinator restart"
 echo "PASS"

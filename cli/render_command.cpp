@@ -41,6 +41,7 @@ struct RenderOptions {
     std::vector<std::string> defines;  // -D name=value
     std::string size;                  // --size WxH
     std::string crop;                  // --crop x0,y0,x1,y1
+    uint64_t maxMemory = 0;            // bytes; 0: the physical memory
 };
 
 // --crop x0,y0,x1,y1: pixels [x0, x1) x [y0, y1) of an image of `size`.
@@ -166,12 +167,14 @@ static int runRender(const RenderOptions& options) {
         threadLimit = std::make_unique<tbb::global_control>(
             tbb::global_control::max_allowed_parallelism, options.threads);
 
-    std::shared_ptr<Scene> scene = loadScene(options.scene, {}, sceneOverrides(options));
+    std::shared_ptr<Scene> scene =
+        loadScene(options.scene, {}, sceneOverrides(options), {options.maxMemory, "--max-memory"});
     std::cerr << "loaded " << options.scene << ": " << scene->toString() << "\n";
 
     RenderSettings settings;
     settings.seed = options.seed;
     settings.tileSize = options.tile;
+    settings.maxFilmBytes = options.maxMemory;
     // A pass is one sample per pixel: --spp and --passes mean the same, the scene's sampler
     // gives the default.
     settings.passes = options.passes ? *options.passes
@@ -301,6 +304,11 @@ Command addRenderCommand(CLI::App& app) {
                     "Stop after the pass running when SECONDS have passed and write the image of "
                     "the passes done")
         ->check(kFinite & CLI::PositiveNumber);
+    sub->add_option("--max-memory", options->maxMemory,
+                    "The most memory the scene's meshes may take, and the film, e.g. 8GB "
+                    "(default: the physical memory); a scene or image beyond it is refused "
+                    "before it is built")
+        ->transform(CLI::AsSizeValue(false));
     return {sub, [options] { return runRender(*options); }};
 }
 

@@ -104,10 +104,12 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
     try {
         const std::string scenePath = farm::materializeBundle(
             bundle, bundleDirectory, [&](const std::string& sha) { return blobs.pathOf(sha); });
-        scene = farm::loadJobScene(bundleDirectory, scenePath, settings.integrator_override());
+        scene = farm::loadJobScene(bundleDirectory, scenePath, settings.integrator_override(),
+                                   {limits.maxGeometryBytes, "--max-memory"});
     } catch (const Error& e) {
         fs::remove_all(admitted.stagingDirectory);
-        throw FarmError(Kind::InvalidArgument,
+        const bool tooLarge = dynamic_cast<const ResourceLimitError*>(&e) != nullptr;
+        throw FarmError(tooLarge ? Kind::ResourceExhausted : Kind::InvalidArgument,
                         absl::StrReplaceAll(e.what(), {{bundleDirectory + "/", ""}}));
     }
     const Vector2i size = scene->camera()->outputSize();

@@ -20,6 +20,9 @@ struct AdmissionLimits {
     uint32_t maxPasses = 1u << 20;
     int defaultTileSize = 64;
     uint32_t defaultPassesPerUnit = 1;
+    // The most memory the scene's meshes may take while the scene is loaded to be checked
+    // (SceneLimits); 0: the machine's physical memory.
+    uint64_t maxGeometryBytes = 0;
 };
 
 struct AdmittedJob {

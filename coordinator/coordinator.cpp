@@ -244,9 +244,9 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request,
         return entry != m_submissionsInProgress.end() && entry->second->waitingCalls > 0;
     };
 
-    const AdmissionLimits limits{m_options.maxBundleBytes, m_options.maxImagePixels,
-                                 m_options.maxPasses, m_options.defaultTileSize,
-                                 m_options.defaultPassesPerUnit};
+    const AdmissionLimits limits{
+        m_options.maxBundleBytes,  m_options.maxImagePixels,       m_options.maxPasses,
+        m_options.defaultTileSize, m_options.defaultPassesPerUnit, m_options.maxMemoryBytes};
     AdmittedJob admitted =
         admitJob(request, m_blobs, limits, (fs::path(m_options.stateDirectory) / "tmp").string());
     const std::string& staging = admitted.stagingDirectory;

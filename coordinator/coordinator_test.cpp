@@ -21,6 +21,7 @@
 #include <csignal>
 
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -710,6 +711,8 @@ TEST_F(CoordinatorJob, CountsThatWouldOverflowAreClampedOrRefused) {
 TEST_F(CoordinatorJob, JobsBeyondTheMemoryBudgetAreRefused) {
     // Room for one 40x30 job of 18 units, not two.
     m_options.maxMemoryBytes = Coordinator::jobMemoryBytes(40, 30, 18) * 3 / 2;
+    // The scene's meshes must fit the budget too while it is loaded at submit: one triangle.
+    std::ofstream(m_dir / "scene/sphere.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
     Coordinator coordinator(m_options);
     const v1::SubmitJobRequest request = upload(coordinator);
     const uint64_t first = coordinator.submit(request).job_id();
@@ -726,6 +729,52 @@ TEST_F(CoordinatorJob, JobsBeyondTheMemoryBudgetAreRefused) {
     coordinator.cancel(first);  // ending a job gives its memory back
     EXPECT_THROW(coordinator.submit(small), FarmError);
     EXPECT_NO_THROW(coordinator.submit(request));
+}
+
+// A scene placing one mesh thousands of times is counted, not built, at submit: beyond
+// --max-memory it is refused at once (building it took minutes and gigabytes), naming the figures.
+TEST_F(CoordinatorJob, ScenesWhoseMeshesExceedTheMemoryBudgetAreRefusedBeforeTheyAreBuilt) {
+    m_options.maxMemoryBytes = uint64_t(256) << 20;
+    Coordinator coordinator(m_options);
+    v1::SubmitJobRequest request = upload(coordinator);
+    // The same bundle with the scene placing the sphere (9024 triangles) 2000 times: 18 million
+    // triangles, about 2.8 GiB. (The client's own check would build it: its blobs go up here.)
+    std::string spheres;
+    for (int i = 0; i < 2000; ++i)
+        spheres += absl::StrFormat(
+            "<mesh type=\"obj\"><string name=\"filename\" value=\"sphere.obj\"/><transform "
+            "name=\"toWorld\"><translate value=\"%d, 0, 0\"/></transform></mesh>\n",
+            3 * i);
+    writeScene(R"(<integrator type="normals"/>)", 40, 30, spheres);
+    const std::string text = farm::readFile((m_dir / "scene/s.xml").string());
+    farm::Bundle bundle = farm::fromProto(request.bundle());
+    for (farm::BundleEntry& file : bundle.files)
+        if (file.path == bundle.scenePath) {
+            file.sha256 = farm::sha256Hex(text);
+            file.size = text.size();
+            BlobStore::Upload blob(coordinator.blobs(), file.sha256);
+            blob.append(text);
+            blob.commit();
+        }
+    *request.mutable_bundle() = farm::toProto(bundle);
+    const auto start = std::chrono::steady_clock::now();
+    try {
+        coordinator.submit(request);
+        FAIL() << "a scene of 18 million triangles was accepted within 256 MiB";
+    } catch (const FarmError& e) {
+        EXPECT_EQ(e.kind, FarmError::Kind::ResourceExhausted);
+        const std::string message = e.what();
+        for (const std::string& expected :
+             {std::string("s.xml:"), std::string("(mesh type=\"obj\")"),
+              std::string("its 2001 meshes have 18057024 triangles"),
+              std::string("more than the limit of 256 MiB (--max-memory)")})
+            EXPECT_NE(message.find(expected), std::string::npos) << expected << " in " << message;
+        EXPECT_EQ(message.find(m_options.stateDirectory), std::string::npos) << message;
+    }
+    // Building it took about 40 s here; counting it takes a fraction of a second.
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+              10.0);
+    EXPECT_TRUE(coordinator.listJobs(0).empty());
 }
 
 // A job keeps the film layout it was admitted with, and the lease tells the worker which: a

@@ -14,6 +14,13 @@ class Error : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
+// Input that is well formed but needs more memory than allowed (a scene's geometry beyond the
+// limit): the coordinator refuses it with RESOURCE_EXHAUSTED rather than INVALID_ARGUMENT.
+class ResourceLimitError : public Error {
+  public:
+    using Error::Error;
+};
+
 template <typename... Args>
 [[noreturn]] void fail(const absl::FormatSpec<Args...>& format, const Args&... args) {
     throw Error(absl::StrFormat(format, args...));

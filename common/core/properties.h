@@ -13,6 +13,8 @@
 
 namespace alphorn {
 
+class SceneLoadContext;  // common/scene/scene_load.h
+
 // Which files a scene may name. A scene rendered where it lies may name any file; a scene sent to
 // the farm must name its files relative to itself (the client bundles them); on the farm every
 // file must lie inside the job's bundle, so a scene cannot read the server's own files.
@@ -92,6 +94,13 @@ class PropertyList {
         m_dependencies = std::move(log);
     }
 
+    // What the loading of the scene file this list was written in shares among its objects;
+    // null for a list the parser did not make.
+    SceneLoadContext* loadContext() const { return m_loadContext.get(); }
+    void setLoadContext(std::shared_ptr<SceneLoadContext> context) {
+        m_loadContext = std::move(context);
+    }
+
     template <typename... Args>
     [[noreturn]] void fail(const absl::FormatSpec<Args...>& format, const Args&... args) const {
         throw Error(m_source + ": " + absl::StrFormat(format, args...));
@@ -114,6 +123,7 @@ class PropertyList {
     std::string m_baseDirectory;
     FileReferencePolicy m_filePolicy;
     std::shared_ptr<std::vector<std::string>> m_dependencies;
+    std::shared_ptr<SceneLoadContext> m_loadContext;
 };
 
 }  // namespace alphorn

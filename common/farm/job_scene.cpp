@@ -23,10 +23,11 @@ std::shared_ptr<Scene> withIntegrator(std::shared_ptr<Scene> scene,
 
 std::shared_ptr<Scene> loadJobScene(const std::string& bundleDirectory,
                                     const std::string& scenePath,
-                                    const std::string& integratorOverride) {
+                                    const std::string& integratorOverride,
+                                    const SceneLimits& limits) {
     FileReferencePolicy policy;
     policy.confinementRoot = bundleDirectory;
-    return withIntegrator(loadScene(scenePath, policy), integratorOverride);
+    return withIntegrator(loadScene(scenePath, policy, {}, limits), integratorOverride);
 }
 
 std::shared_ptr<Scene> loadSceneWithIntegrator(const std::string& scenePath,

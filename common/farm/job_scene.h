@@ -2,6 +2,8 @@
 // (rendering), so both see the same integrator, image size and pass count.
 #pragma once
 
+#include "common/scene/parser.h"
+
 #include <memory>
 #include <string>
 
@@ -16,10 +18,12 @@ namespace alphorn::farm {
 // root or a symbolic link leading out is refused, so a job cannot read the server's own files.
 // With a nonempty `integratorOverride`, replaces the scene's integrator by a default-constructed
 // one of that XML type. Throws the loader's Error ("file:line: problem"), which names files by
-// their paths in the bundle and never shows where the bundle lies on the server.
+// their paths in the bundle and never shows where the bundle lies on the server; a scene beyond
+// `limits` throws ResourceLimitError before any mesh is built.
 std::shared_ptr<Scene> loadJobScene(const std::string& bundleDirectory,
                                     const std::string& scenePath,
-                                    const std::string& integratorOverride);
+                                    const std::string& integratorOverride,
+                                    const SceneLimits& limits = {});
 
 // The same for a scene on disk, which may name any file (benchmarks comparing integrators).
 std::shared_ptr<Scene> loadSceneWithIntegrator(const std::string& scenePath,

@@ -118,15 +118,43 @@ inline Normal3f Intersection::geometricNormal() const {
     return mesh->geometricNormal(triangle);
 }
 
+// The most memory a mesh of `triangles` triangles and `vertices` vertices takes once the scene
+// is built: its arrays (positions; normals and uvs when it has them; faces; the area sampling
+// table) and, in the ray tracing structure, Embree's copy of positions and faces and its BVH.
+// The BVH's share is what a scene of 18 million triangles measured, with some margin; the
+// scene's total is checked against the memory allowed before any mesh is built.
+uint64_t meshMemoryBytes(uint64_t triangles, uint64_t vertices, bool normals, bool uvs);
+
+// The most vertices an OBJ face may have: tinyobjloader triangulates a polygon by ear clipping,
+// in time quadratic in its vertices (a face of 90000 vertices took 14 s, one of 4096 about
+// 0.05 s).
+constexpr size_t kMaxObjFaceVertices = 4096;
+
 // The OBJ loader's pass over the text before tinyobjloader reads it (obj_mesh.cpp): refuses,
 // with "`name`:LINE: problem", the first line tinyobjloader would misread without a word (a
 // number that is not a finite decimal one, a wrong count of numbers, a face index that is not
-// an integer within int's range, a NUL byte), and empties the "vw" (skin weight) lines, which
-// Alphorn ignores and tinyobjloader parses unsafely.
+// an integer within int's range, a NUL byte) or would take too long over (a face of more than
+// kMaxObjFaceVertices), and empties the "vw" (skin weight) lines, which Alphorn ignores and
+// tinyobjloader parses unsafely.
 struct ObjText {
     std::string text;      // the file as tinyobjloader is to read it
     size_t faceCount = 0;  // its "f" lines
 };
 ObjText preparedForTinyObj(std::string text, const std::string& name);
+
+// What an OBJ file's mesh will have, counted by the same pass without building anything.
+struct ObjCounts {
+    uint64_t faces = 0;      // "f" lines
+    uint64_t triangles = 0;  // a polygon of n vertices makes n - 2 (fewer if some are degenerate)
+    // Distinct (position, uv, normal) index triples of the faces: the mesh's vertices.
+    uint64_t vertices = 0;
+    bool normals = true, uvs = true;  // whether every face vertex has one (the mesh keeps them)
+
+    uint64_t memoryBytes() const { return meshMemoryBytes(triangles, vertices, normals, uvs); }
+};
+// Throws Error("`name`:LINE: problem") as preparedForTinyObj does.
+ObjCounts countObjText(std::string text, const std::string& name);
+// The same for a file; a file that cannot be read throws Error naming it.
+ObjCounts countObjFile(const std::string& path);
 
 }  // namespace alphorn

@@ -2,6 +2,7 @@
 
 #include "common/core/dpdf.h"
 #include "common/core/rng.h"
+#include "common/core/system_memory.h"
 #include "common/core/warp.h"
 #include "common/sampler/sampler.h"
 #include "common/scene/parser.h"
@@ -13,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -314,9 +316,11 @@ TEST(WavefrontOBJ, ObjLinesTinyObjLoaderWouldMisreadAreRefused) {
             << "\"" << message << "\" lacks \"" << expected << "\"";
     }
     // Faces whose triangulation gives no triangle are not "no faces": a face of 90000 vertices
-    // going round one triangle was reported so.
+    // going round one triangle was reported so (such a face is now beyond the limit: this one
+    // goes round as often as the limit allows).
     std::string polygon = triangle + "f";
-    for (int i = 0; i < 90000; ++i) polygon += " " + std::to_string(1 + i % 3);
+    for (size_t i = 0; i < kMaxObjFaceVertices / 3 * 3; ++i)
+        polygon += " " + std::to_string(1 + i % 3);
     EXPECT_NE(objLoadError(polygon + "\n")
                   .find("has 1 face, but triangulating it gave no triangle (its vertices are "
                         "collinear or coincide)"),
@@ -333,6 +337,121 @@ TEST(WavefrontOBJ, ObjLinesTinyObjLoaderWouldMisreadAreRefused) {
     EXPECT_NE(
         objLoadError("v 3.3e31 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n").find("farther out than 1e+15"),
         std::string::npos);
+}
+
+// The counts made without building anything are those of the mesh the loader builds: one
+// vertex per distinct (position, uv, normal) triple, n - 2 triangles per polygon of n.
+TEST(WavefrontOBJ, CountsBeforeBuildingAreTheLoadedMeshes) {
+    const ObjCounts polygons = countObjText(
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 2 0\nvn 0 0 1\n"
+        "f 1//1 2//1 3//1 4//1\nf 4//1 3//1 5//1\nf -5//-1 -4//1 -3//1\n",
+        "m.obj");
+    EXPECT_EQ(polygons.faces, 3u);
+    EXPECT_EQ(polygons.triangles, 4u);
+    EXPECT_EQ(polygons.vertices, 5u) << "1//1 and -5//-1 are the same vertex";
+    EXPECT_TRUE(polygons.normals);
+    EXPECT_FALSE(polygons.uvs);
+    for (const std::string mesh : {"sphere.obj", "quad.obj", "triangle.obj"}) {
+        const ObjCounts counts = countObjFile(meshFile(mesh));
+        const Mesh& loaded = *sceneWithMesh(mesh)->meshes().at(0);
+        EXPECT_EQ(counts.triangles, loaded.triangleCount()) << mesh;
+        EXPECT_EQ(counts.vertices, loaded.vertexCount()) << mesh;
+        EXPECT_EQ(counts.normals, loaded.normals().cols() > 0) << mesh;
+        EXPECT_EQ(counts.uvs, loaded.uvs().cols() > 0) << mesh;
+    }
+}
+
+// tinyobjloader triangulates a polygon in time quadratic in its vertices (90000 took 14 s): a
+// face beyond kMaxObjFaceVertices is refused by the pass before it, naming the line and count.
+TEST(WavefrontOBJ, FacesBeyondTheVertexLimitAreRefused) {
+    auto polygon = [](size_t n) {
+        std::string text;
+        for (size_t i = 0; i < n; ++i) {
+            const double angle = 2.0 * M_PI * double(i) / double(n);
+            text += absl::StrFormat("v %.6f %.6f 0\n", std::cos(angle), std::sin(angle));
+        }
+        text += "f";
+        for (size_t i = 1; i <= n; ++i) text += " " + std::to_string(i);
+        return text + "\n";
+    };
+    EXPECT_EQ(preparedForTinyObj(polygon(kMaxObjFaceVertices), "m.obj").faceCount, 1u);
+    const size_t n = kMaxObjFaceVertices + 1;
+    for (auto pass : {+[](const std::string& text) { preparedForTinyObj(text, "m.obj"); },
+                      +[](const std::string& text) { countObjText(text, "m.obj"); }}) {
+        try {
+            pass(polygon(n));
+            FAIL() << "a face of " << n << " vertices was accepted";
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find(
+                          absl::StrFormat("m.obj:%d: a face with %d vertices; at most %d", n + 1, n,
+                                          kMaxObjFaceVertices)),
+                      std::string::npos)
+                << e.what();
+        }
+    }
+}
+
+// A scene placing one OBJ file many times reads it once; each <mesh> gets the mesh it would have
+// got alone, moved by its own toWorld.
+TEST(WavefrontOBJ, AFileNamedByManyMeshesGivesEachTheMeshItWouldGetAlone) {
+    const std::string sphere = meshFile("sphere.obj");
+    auto element = [&](const std::string& translate) {
+        return R"(<mesh type="obj"><string name="filename" value=")" + sphere +
+               R"("/><transform name="toWorld"><scale value="0.3, 0.7, 1.1"/><translate value=")" +
+               translate + R"("/></transform></mesh>)";
+    };
+    const std::string head = R"(<scene><integrator type="normals"/>
+<camera type="perspective"><integer name="width" value="4"/><integer name="height" value="4"/></camera>)";
+    const auto together = sceneFrom(head + element("1, 2, 3") + element("-4, 5, 6") +
+                                    element("1, 2, 3") + "</scene>");
+    const auto alone = sceneFrom(head + element("-4, 5, 6") + "</scene>");
+    ASSERT_EQ(together->meshes().size(), 3u);
+    const Mesh& second = *together->meshes()[1];
+    const Mesh& single = *alone->meshes()[0];
+    EXPECT_EQ(second.positions(), single.positions());
+    EXPECT_EQ(second.normals(), single.normals());
+    EXPECT_EQ(second.uvs(), single.uvs());
+    EXPECT_EQ(second.faces(), single.faces());
+    EXPECT_EQ(together->meshes()[0]->positions(), together->meshes()[2]->positions());
+    EXPECT_NE(together->meshes()[0]->positions(), second.positions());
+}
+
+// A scene whose meshes would take more memory than allowed is refused before any is built, at
+// the mesh from which on they would, naming the whole scene's counts and the limit.
+TEST(WavefrontOBJ, ScenesWhoseMeshesExceedTheMemoryLimitAreRefusedBeforeBuilding) {
+    const std::filesystem::path path =
+        std::filesystem::temp_directory_path() /
+        ("alphorn_mesh_limit_" + std::to_string(::getpid()) + ".xml");
+    std::string xml = R"(<scene><integrator type="normals"/>
+<camera type="perspective"><integer name="width" value="4"/><integer name="height" value="4"/></camera>
+)";
+    for (int i = 0; i < 1000; ++i)
+        xml += R"(<mesh type="obj"><string name="filename" value=")" + meshFile("sphere.obj") +
+               "\"/></mesh>\n";
+    xml += "</scene>\n";
+    std::ofstream(path) << xml;
+    const ObjCounts sphere = countObjFile(meshFile("sphere.obj"));
+    SceneLimits limits;
+    limits.maxGeometryBytes = sphere.memoryBytes() * 5 / 2;  // room for two spheres, not three
+    limits.setting = "--max-memory";
+    const auto start = std::chrono::steady_clock::now();
+    try {
+        loadScene(path.string(), {}, {}, limits);
+        FAIL() << "1000 spheres were loaded within the memory of 2.5";
+    } catch (const ResourceLimitError& e) {
+        const std::string message = e.what();
+        for (const std::string& expected :
+             {path.string() + ":5:2 (mesh type=\"obj\")",
+              absl::StrFormat("its 1000 meshes have %u triangles and %u vertices",
+                              1000 * sphere.triangles, 1000 * sphere.vertices),
+              absl::StrFormat("more than the limit of %s (--max-memory)",
+                              formatBytes(limits.maxGeometryBytes)),
+              absl::StrFormat("has %u triangles", sphere.triangles)})
+            EXPECT_NE(message.find(expected), std::string::npos) << expected << " in " << message;
+    }
+    // Counted, not built: a 1000-sphere scene takes several seconds to build.
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 5.0);
+    std::filesystem::remove(path);
 }
 
 }  // namespace

@@ -3,7 +3,9 @@
 #include "common/core/decimal_number.h"
 #include "common/core/transform.h"
 #include "common/scene/mesh.h"
+#include "common/scene/scene_load.h"
 
+#include <absl/container/flat_hash_set.h>
 #include <absl/strings/str_format.h>
 
 #include <tiny_obj_loader.h>
@@ -50,7 +52,8 @@ std::string_view nextToken(std::string_view line, size_t& position) {
 // One index of a face vertex: a nonzero decimal integer within int's range (a negative one
 // counts back from the last vertex read). tinyobjloader reads indices with atoi, which wraps
 // beyond that range and reads "1.5" as 1.
-bool isObjIndex(std::string_view s) {
+bool parseObjIndex(std::string_view s, int& index) {
+    const bool negative = !s.empty() && s[0] == '-';
     size_t i = !s.empty() && (s[0] == '+' || s[0] == '-') ? 1 : 0;
     if (i == s.size()) return false;
     int64_t value = 0;
@@ -59,20 +62,47 @@ bool isObjIndex(std::string_view s) {
         value = value * 10 + (s[i] - '0');
         if (value > std::numeric_limits<int>::max()) return false;
     }
+    index = static_cast<int>(negative ? -value : value);
     return value != 0;
 }
 
+// A face vertex as written: its position, texture coordinate and normal indices (0: none).
+struct FaceVertex {
+    int position = 0, uv = 0, normal = 0;
+};
+
 // A face vertex: i, i/j, i//k or i/j/k (position, texture coordinate and normal indices).
-bool isFaceVertex(std::string_view token) {
+bool parseFaceVertex(std::string_view token, FaceVertex& vertex) {
+    vertex = FaceVertex();
     const size_t first = token.find('/');
-    if (first == std::string_view::npos) return isObjIndex(token);
-    if (!isObjIndex(token.substr(0, first))) return false;
+    if (first == std::string_view::npos) return parseObjIndex(token, vertex.position);
+    if (!parseObjIndex(token.substr(0, first), vertex.position)) return false;
     const std::string_view rest = token.substr(first + 1);
     const size_t second = rest.find('/');
-    if (second == std::string_view::npos) return isObjIndex(rest);
+    if (second == std::string_view::npos) return parseObjIndex(rest, vertex.uv);
     const std::string_view uv = rest.substr(0, second);
-    return (uv.empty() || isObjIndex(uv)) && isObjIndex(rest.substr(second + 1));
+    return (uv.empty() || parseObjIndex(uv, vertex.uv)) &&
+           parseObjIndex(rest.substr(second + 1), vertex.normal);
 }
+
+// What the pass over an OBJ file counts when asked to (countObjFile): the lines read so far,
+// which relative (negative) indices count back from, and the mesh the faces make.
+struct ObjCounter {
+    int positions = 0, uvs = 0, normals = 0;  // "v", "vt" and "vn" lines so far
+    // The distinct (position, uv, normal) triples, resolved as tinyobjloader resolves them (-1:
+    // none): the loader makes one vertex of each.
+    absl::flat_hash_set<std::tuple<int, int, int>> vertices;
+    ObjCounts counts;
+
+    static int resolved(int index, int count) { return index > 0 ? index - 1 : count + index; }
+    void addFaceVertex(const FaceVertex& vertex) {
+        vertices.emplace(resolved(vertex.position, positions),
+                         vertex.uv == 0 ? -1 : resolved(vertex.uv, uvs),
+                         vertex.normal == 0 ? -1 : resolved(vertex.normal, normals));
+        counts.uvs &= vertex.uv != 0;
+        counts.normals &= vertex.normal != 0;
+    }
+};
 
 // Whether the decimal number `s` is finite as a float, as tinyobjloader reads it (1e39 is
 // infinite). Without an exponent, 38 digits before the point always fit: strtof, the costly
@@ -90,8 +120,9 @@ bool fitsFloat(std::string_view s) {
 }
 
 // The problem with one line of an OBJ file that tinyobjloader would misread without a word, or
-// "" when there is none. Only the lines Alphorn uses are checked: v, vt, vn and f.
-std::string lineProblem(std::string_view line) {
+// would take too long over, or "" when there is none. Only the lines Alphorn uses are checked:
+// v, vt, vn and f. With a counter, the line is counted too.
+std::string lineProblem(std::string_view line, ObjCounter* counter) {
     // tinyobjloader's lines end at a NUL byte: whatever follows it would be dropped.
     if (line.find('\0') != std::string_view::npos) return "the line contains a NUL byte";
     size_t position = 0;
@@ -100,12 +131,13 @@ std::string lineProblem(std::string_view line) {
     if (!numbers && keyword != "f") return "";
     auto shown = [&] { return std::string(line.substr(line.find_first_not_of(" \t"), 60)); };
     size_t count = 0;
+    FaceVertex vertex;
     // A comment may end the numbers (tinyobjloader stops at what is no number); in a face it
     // is an error to tinyobjloader, reported below as no face vertex.
     for (std::string_view token = nextToken(line, position);
          !token.empty() && !(numbers && token[0] == '#');
          token = nextToken(line, position), ++count) {
-        if (!numbers && !isFaceVertex(token))
+        if (!numbers && !parseFaceVertex(token, vertex))
             return absl::StrFormat(
                 "\"%s\": \"%s\" is not a face vertex (i, i/j, i//k or i/j/k, with nonzero integer "
                 "indices within +-2147483647)",
@@ -113,22 +145,33 @@ std::string lineProblem(std::string_view line) {
         if (numbers && !(isDecimalNumber(token) && fitsFloat(token)))
             return absl::StrFormat("\"%s\": \"%s\" is not a finite decimal number", shown(),
                                    token.substr(0, 40));
+        if (!numbers && counter && count < kMaxObjFaceVertices) counter->addFaceVertex(vertex);
     }
     if (!numbers && count < 3)
         return absl::StrFormat("\"%s\": a face needs at least 3 vertices", shown());
+    // tinyobjloader triangulates a polygon by ear clipping, in time quadratic in its vertices:
+    // 90000 vertices took 14 s, 4096 take about 0.05 s.
+    if (!numbers && count > kMaxObjFaceVertices)
+        return absl::StrFormat(
+            "a face with %d vertices; at most %d (triangulating a polygon takes time quadratic in "
+            "its vertices)",
+            count, kMaxObjFaceVertices);
     if (numbers && !isAcceptedCount(keyword, count))
         return absl::StrFormat("\"%s\" has %d numbers; \"%s\" takes %s", shown(), count, keyword,
                                acceptedCounts(keyword));
+    if (counter) {
+        if (keyword == "v") ++counter->positions;
+        if (keyword == "vt") ++counter->uvs;
+        if (keyword == "vn") ++counter->normals;
+        if (keyword == "f") counter->counts.triangles += count - 2;
+    }
     return "";
 }
 
-}  // namespace
-
-// One pass over the lines as tinyobjloader splits them (at \n, \r or \r\n): each is checked,
-// and the "vw" lines are emptied. tinyobjloader's "vw" extension (skin weights) converts joint
-// ids from float to int unchecked, which is undefined behaviour for ids beyond the int range;
-// Alphorn has no use for skin weights. Line breaks stay, so line numbers still match the file.
-ObjText preparedForTinyObj(std::string text, const std::string& name) {
+// One pass over the lines as tinyobjloader splits them (at \n, \r or \r\n): each is checked
+// (and counted, with a counter); with `prepare`, the "vw" lines are emptied. Returns the "f"
+// lines.
+size_t scanObjText(std::string& text, const std::string& name, bool prepare, ObjCounter* counter) {
     size_t read = 0, write = 0, lineNumber = 1, faceCount = 0;
     while (read < text.size()) {
         size_t lineEnd = read;
@@ -140,20 +183,53 @@ ObjText preparedForTinyObj(std::string text, const std::string& name) {
                     ? 2
                     : 1;
         const std::string_view line(text.data() + read, lineEnd - read);
-        const std::string problem = lineProblem(line);
+        const std::string problem = lineProblem(line, counter);
         if (!problem.empty()) fail("%s:%d: %s", name, lineNumber, problem);
         size_t afterKeyword = 0;
         const std::string_view keyword = nextToken(line, afterKeyword);
         faceCount += keyword == "f";
-        // The line's text goes, its break stays.
-        const size_t kept = keyword == "vw" && afterKeyword < line.size() ? lineEnd : read;
-        if (write != kept) std::memmove(text.data() + write, text.data() + kept, breakEnd - kept);
-        write += breakEnd - kept;
         lineNumber += breakEnd > lineEnd;
+        if (prepare) {
+            // The line's text goes, its break stays.
+            const size_t kept = keyword == "vw" && afterKeyword < line.size() ? lineEnd : read;
+            if (write != kept)
+                std::memmove(text.data() + write, text.data() + kept, breakEnd - kept);
+            write += breakEnd - kept;
+        }
         read = breakEnd;
     }
-    text.resize(write);
+    if (prepare) text.resize(write);
+    return faceCount;
+}
+
+std::string readObjFile(const std::string& path) {
+    std::ifstream file(path, std::ios::binary);
+    if (!file) fail("cannot open OBJ file \"%s\": %s", path, std::strerror(errno));
+    std::stringstream contents;
+    contents << file.rdbuf();
+    return std::move(contents).str();
+}
+
+}  // namespace
+
+// tinyobjloader's "vw" extension (skin weights) converts joint ids from float to int unchecked,
+// which is undefined behaviour for ids beyond the int range; Alphorn has no use for skin weights.
+// Line breaks stay, so line numbers still match the file.
+ObjText preparedForTinyObj(std::string text, const std::string& name) {
+    const size_t faceCount = scanObjText(text, name, /*prepare=*/true, nullptr);
     return {std::move(text), faceCount};
+}
+
+ObjCounts countObjText(std::string text, const std::string& name) {
+    ObjCounter counter;
+    counter.counts.faces = scanObjText(text, name, /*prepare=*/false, &counter);
+    counter.counts.vertices = counter.vertices.size();
+    if (counter.counts.faces == 0) counter.counts.normals = counter.counts.uvs = false;
+    return counter.counts;
+}
+
+ObjCounts countObjFile(const std::string& path) {
+    return countObjText(readObjFile(path), path);
 }
 
 // Embree refuses (asserts on) rays whose origin has a coordinate beyond about 1.8e18, and rays
@@ -167,18 +243,23 @@ class WavefrontOBJ : public Mesh {
         std::string path = props.resolvePath(filename);
         Transform toWorld = props.getTransform("toWorld", Transform());
         m_name = filename;
-        load(props, path, toWorld);
+        // The file's mesh is read once for every <mesh> of the scene that names it.
+        auto read = [&] { return readGeometry(props, path); };
+        SceneLoadContext* context = props.loadContext();
+        place(props, path, context ? *context->objGeometry(path, read) : read(), toWorld);
     }
 
   private:
-    void load(const PropertyList& props, const std::string& path, const Transform& toWorld) {
-        std::ifstream file(path, std::ios::binary);
-        if (!file) props.fail("cannot open OBJ file \"%s\": %s", path, std::strerror(errno));
-        std::stringstream contents;
-        contents << file.rdbuf();
+    static ObjGeometry readGeometry(const PropertyList& props, const std::string& path) {
+        std::string text;
+        try {
+            text = readObjFile(path);
+        } catch (const Error& e) {
+            props.fail("%s", e.what());
+        }
         ObjText prepared;
         try {
-            prepared = preparedForTinyObj(std::move(contents).str(), path);
+            prepared = preparedForTinyObj(std::move(text), path);
         } catch (const Error& e) {
             props.fail("OBJ file %s", e.what());
         }
@@ -227,14 +308,35 @@ class WavefrontOBJ : public Mesh {
         if (faceIndices.empty()) props.fail("OBJ file \"%s\" contains no faces", path);
 
         const size_t n = keys.size();
-        Eigen::Matrix<float, 3, Eigen::Dynamic> positions(3, n);
-        Eigen::Matrix<float, 3, Eigen::Dynamic> normals(3, allNormals ? n : 0);
-        Eigen::Matrix<float, 2, Eigen::Dynamic> uvs(2, allUvs ? n : 0);
+        ObjGeometry geometry;
+        geometry.positions.resize(3, n);
+        geometry.normals.resize(3, allNormals ? n : 0);
+        geometry.uvs.resize(2, allUvs ? n : 0);
         for (size_t i = 0; i < n; ++i) {
             const auto& [p, nIdx, t] = keys[i];
-            Point3f position(attrib.vertices[3 * p], attrib.vertices[3 * p + 1],
-                             attrib.vertices[3 * p + 2]);
-            positions.col(i) = toWorld.applyPoint(position);
+            geometry.positions.col(i) = Point3f(attrib.vertices[3 * p], attrib.vertices[3 * p + 1],
+                                                attrib.vertices[3 * p + 2]);
+            if (allNormals)
+                geometry.normals.col(i) =
+                    Normal3f(attrib.normals[3 * nIdx], attrib.normals[3 * nIdx + 1],
+                             attrib.normals[3 * nIdx + 2]);
+            if (allUvs)
+                geometry.uvs.col(i) = Point2f(attrib.texcoords[2 * t], attrib.texcoords[2 * t + 1]);
+        }
+        geometry.faces.resize(3, faceIndices.size() / 3);
+        std::copy(faceIndices.begin(), faceIndices.end(), geometry.faces.data());
+        return geometry;
+    }
+
+    // This mesh: the file's mesh moved into the scene by toWorld.
+    void place(const PropertyList& props, const std::string& path, const ObjGeometry& geometry,
+               const Transform& toWorld) {
+        const bool hasNormals = geometry.normals.cols() > 0;
+        const size_t n = geometry.positions.cols();
+        Eigen::Matrix<float, 3, Eigen::Dynamic> positions(3, n);
+        Eigen::Matrix<float, 3, Eigen::Dynamic> normals(3, geometry.normals.cols());
+        for (size_t i = 0; i < n; ++i) {
+            positions.col(i) = toWorld.applyPoint(Point3f(geometry.positions.col(i)));
             if (!positions.col(i).allFinite())
                 props.fail("OBJ file \"%s\" has a non-finite vertex position", path);
             if (positions.col(i).cwiseAbs().maxCoeff() > kMaxVertexCoordinate)
@@ -242,19 +344,14 @@ class WavefrontOBJ : public Mesh {
                     "OBJ file \"%s\" has a vertex at (%g, %g, %g), farther out than %g (after "
                     "toWorld), where rays cannot be traced",
                     path, positions(0, i), positions(1, i), positions(2, i), kMaxVertexCoordinate);
-            if (allNormals) {
-                Normal3f normal(attrib.normals[3 * nIdx], attrib.normals[3 * nIdx + 1],
-                                attrib.normals[3 * nIdx + 2]);
-                Normal3f world = toWorld.applyNormal(normal);
+            if (hasNormals) {
+                Normal3f world = toWorld.applyNormal(Normal3f(geometry.normals.col(i)));
                 float length = world.norm();
                 // A zero normal in the file falls back to the geometric normal at shading time.
                 normals.col(i) = length > 0.0f ? Normal3f(world / length) : Normal3f::Zero();
             }
-            if (allUvs) uvs.col(i) = Point2f(attrib.texcoords[2 * t], attrib.texcoords[2 * t + 1]);
         }
-        Eigen::Matrix<uint32_t, 3, Eigen::Dynamic> faces(3, faceIndices.size() / 3);
-        std::copy(faceIndices.begin(), faceIndices.end(), faces.data());
-        setGeometry(std::move(positions), std::move(normals), std::move(uvs), std::move(faces));
+        setGeometry(std::move(positions), std::move(normals), geometry.uvs, geometry.faces);
     }
 };
 

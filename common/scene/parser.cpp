@@ -1,7 +1,10 @@
 #include "common/scene/parser.h"
 
 #include "common/core/decimal_number.h"
+#include "common/core/system_memory.h"
+#include "common/scene/mesh.h"
 #include "common/scene/scene.h"
+#include "common/scene/scene_load.h"
 
 #include <absl/strings/ascii.h>
 #include <absl/strings/str_cat.h>
@@ -61,8 +64,8 @@ const std::map<std::string, Tag> kPropertyTags = {
 class Parser {
   public:
     Parser(const std::string& path, const FileReferencePolicy& policy,
-           const SceneOverrides& overrides)
-        : m_path(path), m_name(path), m_policy(policy), m_overrides(overrides) {
+           const SceneOverrides& overrides, const SceneLimits& limits)
+        : m_path(path), m_name(path), m_policy(policy), m_overrides(overrides), m_limits(limits) {
         namespace fs = std::filesystem;
         if (!m_policy.confinementRoot.empty()) {
             fs::path root = fs::absolute(m_policy.confinementRoot).lexically_normal();
@@ -85,6 +88,8 @@ class Parser {
         if (m_policy.confinementRoot.empty()) return parseFile();
         try {
             return parseFile();
+        } catch (const ResourceLimitError& e) {
+            throw ResourceLimitError(withoutConfinementRoot(e.what()));
         } catch (const Error& e) {
             throw Error(withoutConfinementRoot(e.what()));
         } catch (const std::filesystem::filesystem_error& e) {
@@ -123,6 +128,7 @@ class Parser {
         if (!kObjectTags.count(root.name()))
             fail("%s: the root element must be <scene> or <test>, found <%s>",
                  location(root.offset_debug()), root.name());
+        checkGeometry(doc);
         ParseResult out;
         out.root = parseObject(root);
         for (const auto& [parameter, value] : m_overrides.parameters)
@@ -182,6 +188,77 @@ class Parser {
         if (check.repeating)
             failAt(check.repeating, "malformed XML: <%s> has the attribute \"%s\" more than once",
                    check.repeating.name(), check.repeated);
+    }
+
+    // Before any object is built: the OBJ file that each <mesh type="obj"> names is counted
+    // (once per file, without building anything) and announced to the load context, which then
+    // keeps a file's mesh until every <mesh> naming it has it. A scene whose meshes would take
+    // more memory than allowed is refused at the mesh from which on they do, naming the whole
+    // scene's figures. A mesh whose file cannot be named or counted here is left to its plugin,
+    // which reports the problem where it belongs as the scene is built.
+    void checkGeometry(pugi::xml_document& doc) {
+        struct Meshes : pugi::xml_tree_walker {
+            std::vector<pugi::xml_node> nodes;
+            bool for_each(pugi::xml_node& node) override {
+                if (node.type() == pugi::node_element && std::string_view(node.name()) == "mesh")
+                    nodes.push_back(node);
+                return true;
+            }
+        } meshes;
+        doc.traverse(meshes);
+        const uint64_t limit =
+            m_limits.maxGeometryBytes ? m_limits.maxGeometryBytes : physicalMemoryBytes();
+        std::map<std::string, std::optional<ObjCounts>> counted;  // by resolved path
+        uint64_t meshCount = 0, triangles = 0, vertices = 0, bytes = 0;
+        pugi::xml_node beyond;  // the mesh with which the total goes beyond the limit
+        std::string beyondFile;
+        ObjCounts beyondCounts;
+        for (const pugi::xml_node& mesh : meshes.nodes) {
+            std::string filename, path;
+            try {
+                if (attr(mesh, "type") != "obj") continue;
+                for (const pugi::xml_node& child : mesh.children("string"))
+                    if (attr(child, "name") == "filename") filename = attr(child, "value");
+                if (filename.empty()) continue;
+                PropertyList resolver;
+                resolver.setBaseDirectory(m_baseDirectory);
+                resolver.setFileReferencePolicy(m_policy);
+                path = resolver.resolvePath(filename);
+            } catch (const std::exception&) {
+                continue;
+            }
+            auto [entry, isNew] = counted.try_emplace(path);
+            if (isNew) {
+                try {
+                    entry->second = countObjFile(path);
+                } catch (const Error&) {
+                }
+            }
+            if (!entry->second) continue;
+            const ObjCounts& counts = *entry->second;
+            m_loadContext->announceObjFile(path);
+            ++meshCount;
+            triangles += counts.triangles;
+            vertices += counts.vertices;
+            bytes += counts.memoryBytes();
+            if (bytes > limit && !beyond) {
+                beyond = mesh;
+                beyondFile = filename;
+                beyondCounts = counts;
+            }
+        }
+        if (!beyond) return;
+        const std::string allowed =
+            m_limits.maxGeometryBytes
+                ? absl::StrFormat("the limit of %s%s", formatBytes(limit),
+                                  m_limits.setting.empty() ? "" : " (" + m_limits.setting + ")")
+                : absl::StrFormat("this machine's %s of memory", formatBytes(limit));
+        throw ResourceLimitError(absl::StrFormat(
+            "%s (mesh type=\"obj\"): from this mesh on, the scene's meshes need more memory than "
+            "allowed: its %u meshes have %u triangles and %u vertices, which need about %s, more "
+            "than %s; this mesh (%s) has %u triangles and %u vertices",
+            location(beyond.offset_debug()), meshCount, triangles, vertices, formatBytes(bytes),
+            allowed, beyondFile, beyondCounts.triangles, beyondCounts.vertices));
     }
 
     // Plugins name the files they could not read by their full path; inside a confinement root
@@ -392,6 +469,7 @@ class Parser {
         props.setBaseDirectory(m_baseDirectory);
         props.setFileReferencePolicy(m_policy);
         props.setDependencyLog(m_dependencies);
+        props.setLoadContext(m_loadContext);
 
         std::vector<std::pair<std::shared_ptr<Object>, std::string>> children;
         std::map<std::string, ptrdiff_t> propertyOffsets;  // where each property was written
@@ -548,6 +626,8 @@ class Parser {
     std::string m_name;
     FileReferencePolicy m_policy;
     SceneOverrides m_overrides;
+    SceneLimits m_limits;
+    std::shared_ptr<SceneLoadContext> m_loadContext = std::make_shared<SceneLoadContext>();
     mutable std::set<std::string> m_usedParameters;  // the -D names some $name referred to
     std::string m_text;
     std::string m_baseDirectory;
@@ -558,13 +638,13 @@ class Parser {
 }  // namespace
 
 ParseResult parseSceneFile(const std::string& path, const FileReferencePolicy& policy,
-                           const SceneOverrides& overrides) {
-    return Parser(path, policy, overrides).parse();
+                           const SceneOverrides& overrides, const SceneLimits& limits) {
+    return Parser(path, policy, overrides, limits).parse();
 }
 
 std::shared_ptr<Scene> loadScene(const std::string& path, const FileReferencePolicy& policy,
-                                 const SceneOverrides& overrides) {
-    Parser parser(path, policy, overrides);
+                                 const SceneOverrides& overrides, const SceneLimits& limits) {
+    Parser parser(path, policy, overrides, limits);
     ParseResult result = parser.parse();
     if (result.root->kind() != ObjectKind::Scene)
         fail("%s: expected a <scene> root element, found <%s>", parser.name(),

@@ -25,13 +25,25 @@ struct SceneOverrides {
     std::optional<Vector2i> imageSize;
 };
 
+// What a scene may make the loader build. Checked before any mesh is built: from counts of the
+// vertices and faces in its OBJ files (a file that several <mesh> elements name counts for each).
+struct SceneLimits {
+    // The most memory the meshes may take together, as meshMemoryBytes (common/scene/mesh.h)
+    // estimates it; 0: the machine's physical memory.
+    uint64_t maxGeometryBytes = 0;
+    // The setting maxGeometryBytes comes from, for messages (e.g. "--max-memory").
+    std::string setting;
+};
+
 // Parses a scene or test file; throws Error("file:line:col: problem") on any problem. The policy
 // says which files the scene may name (any, by default). With a confinement root (a farm job's
-// bundle), messages name files relative to the root, so they never show where it lies.
+// bundle), messages name files relative to the root, so they never show where it lies. A scene
+// beyond the limits throws ResourceLimitError ("file:line (mesh ...): ...").
 ParseResult parseSceneFile(const std::string& path, const FileReferencePolicy& policy = {},
-                           const SceneOverrides& overrides = {});
+                           const SceneOverrides& overrides = {}, const SceneLimits& limits = {});
 // Parses a file whose root must be <scene>.
 std::shared_ptr<Scene> loadScene(const std::string& path, const FileReferencePolicy& policy = {},
-                                 const SceneOverrides& overrides = {});
+                                 const SceneOverrides& overrides = {},
+                                 const SceneLimits& limits = {});
 
 }  // namespace alphorn

@@ -108,20 +108,31 @@ void addParams(std::string_view encoded, std::multimap<std::string, std::string>
 }
 
 // A warning that may come in floods (a client opening hundreds of connections): logged at most
-// every ten seconds, with the number of like events since the last line.
+// every ten seconds, naming the latest peer and counting the events since the previous line.
+// flush() logs the events that came after the latest line, once their ten seconds are over.
 class OccasionalWarning {
   public:
     explicit OccasionalWarning(std::string event) : m_event(std::move(event)) {}
     void note(const std::string& peer, const std::string& reason) {
-        int64_t count = 0;
-        {
-            std::lock_guard lock(m_mutex);
-            ++m_count;
-            const Clock::time_point now = Clock::now();
-            if (m_logged && now - *m_logged < std::chrono::seconds(10)) return;
-            m_logged = now;
-            count = std::exchange(m_count, 0);
-        }
+        std::unique_lock lock(m_mutex);
+        ++m_count;
+        m_peer = peer;
+        m_reason = reason;
+        logIfDue(lock);
+    }
+    void flush() {
+        std::unique_lock lock(m_mutex);
+        if (m_count > 0) logIfDue(lock);
+    }
+
+  private:
+    void logIfDue(std::unique_lock<std::mutex>& lock) {
+        const Clock::time_point now = Clock::now();
+        if (m_logged && now - *m_logged < std::chrono::seconds(10)) return;
+        m_logged = now;
+        const int64_t count = std::exchange(m_count, 0);
+        const std::string peer = m_peer, reason = m_reason;
+        lock.unlock();
         if (peer.empty())
             logWarning(m_event, {field("reason", reason), field("count_since_last_line", count)});
         else
@@ -129,11 +140,11 @@ class OccasionalWarning {
                                  field("count_since_last_line", count)});
     }
 
-  private:
     const std::string m_event;
     std::mutex m_mutex;
     std::optional<Clock::time_point> m_logged;
     int64_t m_count = 0;
+    std::string m_peer, m_reason;
 };
 
 // The connections open at once, in all and by client address.
@@ -162,6 +173,7 @@ class ConnectionCount {
         m_refusals.note(address, reason);
         return false;
     }
+    void flushWarnings() { m_refusals.flush(); }
     void release(const std::string& address) {
         std::lock_guard lock(m_mutex);
         --m_total;
@@ -208,6 +220,7 @@ struct HttpServer::Transport {
     // are gone before the objects above.
     std::unique_ptr<asio::io_context> io;
     std::unique_ptr<tcp::acceptor> acceptor;
+    std::unique_ptr<asio::steady_timer> warningFlush;
     std::vector<std::thread> threads;
 };
 
@@ -404,6 +417,18 @@ void acceptNext(HttpServer::Transport& transport, const HttpServer& server) {
         });
 }
 
+// Every ten seconds, the occasional warnings' lines still owed.
+void flushWarningsEvery10Seconds(HttpServer::Transport& transport) {
+    transport.warningFlush->expires_after(std::chrono::seconds(10));
+    transport.warningFlush->async_wait([&transport](beast::error_code error) {
+        if (error) return;
+        transport.connections->flushWarnings();
+        transport.tooSlow.flush();
+        transport.acceptFailures.flush();
+        flushWarningsEvery10Seconds(transport);
+    });
+}
+
 }  // namespace
 
 bool HeaderNameLess::operator()(const std::string& a, const std::string& b) const {
@@ -585,6 +610,8 @@ void HttpServer::start() {
     }
     m_port = acceptor.local_endpoint().port();
     acceptNext(transport, *this);
+    transport.warningFlush = std::make_unique<asio::steady_timer>(*transport.io);
+    flushWarningsEvery10Seconds(transport);
     for (int i = 0; i < threads; ++i)
         transport.threads.emplace_back([io = transport.io.get()] {
             for (;;) {
@@ -604,6 +631,7 @@ void HttpServer::stop() {
     transport.io->stop();
     for (std::thread& thread : transport.threads) thread.join();
     transport.threads.clear();
+    transport.warningFlush.reset();
     transport.acceptor.reset();
     transport.io.reset();  // destroys the connections left
 }

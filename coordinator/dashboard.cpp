@@ -70,19 +70,19 @@ std::string contentTypeOf(std::string_view name) {
     return "application/octet-stream";
 }
 
-void plainText(httplib::Response& response, int status, const std::string& text) {
+void plainText(farm::HttpResponse& response, int status, const std::string& text) {
     response.status = status;
-    response.set_content(text + "\n", "text/plain; charset=utf-8");
+    response.setContent(text + "\n", "text/plain; charset=utf-8");
 }
 
-void jsonAnswer(httplib::Response& response, const std::string& json) {
+void jsonAnswer(farm::HttpResponse& response, const std::string& json) {
     response.status = 200;
-    response.set_content(json, "application/json");
+    response.setContent(json, "application/json");
 }
 
 // The value of a cookie in the request's Cookie header; empty when it has none.
-std::string cookieValue(const httplib::Request& request, std::string_view name) {
-    const std::string header = request.get_header_value("Cookie");
+std::string cookieValue(const farm::HttpRequest& request, std::string_view name) {
+    const std::string header = request.header("Cookie");
     std::string_view rest = header;
     while (!rest.empty()) {
         const size_t end = std::min(rest.find(';'), rest.size());
@@ -97,8 +97,8 @@ std::string cookieValue(const httplib::Request& request, std::string_view name) 
 }
 
 // An unsigned number parameter of the request (?id=7); InvalidArgument when missing or not one.
-uint64_t numberParam(const httplib::Request& request, const char* name) {
-    const std::string text = request.get_param_value(name);
+uint64_t numberParam(const farm::HttpRequest& request, const char* name) {
+    const std::string text = request.param(name);
     uint64_t value = 0;
     const auto result = std::from_chars(text.data(), text.data() + text.size(), value);
     if (text.empty() || result.ec != std::errc() || result.ptr != text.data() + text.size())
@@ -149,8 +149,8 @@ Dashboard::~Dashboard() {
 
 // ---- access ------------------------------------------------------------------------------------
 
-Dashboard::Caller Dashboard::identify(const httplib::Request& request) {
-    const std::string authorization = request.get_header_value("Authorization");
+Dashboard::Caller Dashboard::identify(const farm::HttpRequest& request) {
+    const std::string authorization = request.header("Authorization");
     if (!authorization.empty()) {
         // A request that names a token is judged by it alone, never by a cookie beside it.
         const std::string_view prefix = "Bearer ";
@@ -164,23 +164,23 @@ Dashboard::Caller Dashboard::identify(const httplib::Request& request) {
 
 void Dashboard::route(farm::HttpServer& server, const std::string& path, RouteKind kind,
                       Handler handler) {
-    auto guarded = [this, kind, handler = std::move(handler)](const httplib::Request& request,
-                                                              httplib::Response& response) {
+    auto guarded = [this, kind, handler = std::move(handler)](const farm::HttpRequest& request,
+                                                              farm::HttpResponse& response) {
         // No page may be framed by another site (the buttons could be clicked through it), and
         // a page runs only its own script.
-        response.set_header("Content-Security-Policy",
-                            "default-src 'self'; style-src 'self' 'unsafe-inline'; "
-                            "frame-ancestors 'none'; form-action 'self'; base-uri 'none'");
-        response.set_header("X-Frame-Options", "DENY");
-        response.set_header("X-Content-Type-Options", "nosniff");
-        response.set_header("Referrer-Policy", "no-referrer");
-        response.set_header("Cache-Control", "no-store");
+        response.addHeader("Content-Security-Policy",
+                           "default-src 'self'; style-src 'self' 'unsafe-inline'; "
+                           "frame-ancestors 'none'; form-action 'self'; base-uri 'none'");
+        response.addHeader("X-Frame-Options", "DENY");
+        response.addHeader("X-Content-Type-Options", "nosniff");
+        response.addHeader("Referrer-Policy", "no-referrer");
+        response.addHeader("Cache-Control", "no-store");
         const Caller caller = identify(request);
         const auto refuse = [&](int status, const std::string& text) {
             logWarning(
                 "dashboard.refused",
                 {field("path", request.path), field("status", status),
-                 field("peer", request.remote_addr + ":" + std::to_string(request.remote_port))});
+                 field("peer", request.remoteAddress + ":" + std::to_string(request.remotePort))});
             plainText(response, status, text);
         };
         if (caller.role == DashboardRole::None) {
@@ -193,19 +193,18 @@ void Dashboard::route(farm::HttpServer& server, const std::string& path, RouteKi
                        "401 unauthorized: log in at /dashboard/login or send the header "
                        "Authorization: Bearer <token>");
             }
-            response.set_header("WWW-Authenticate", "Bearer realm=\"alphorn\"");
+            response.addHeader("WWW-Authenticate", "Bearer realm=\"alphorn\"");
             return;
         }
         if (kind == RouteKind::Action) {
             if (caller.role != DashboardRole::Operator)
                 return refuse(403, "403 forbidden: the viewer token may look but not act");
-            if (caller.byCookie && request.get_header_value(kActionHeader) != "1")
+            if (caller.byCookie && request.header(kActionHeader) != "1")
                 return refuse(403, std::string("403 forbidden: an action sent with the session "
                                                "cookie must carry the header ") +
                                        kActionHeader + ": 1");
         }
-        if (kind == RouteKind::Session && caller.byCookie &&
-            request.get_header_value(kActionHeader) != "1")
+        if (kind == RouteKind::Session && caller.byCookie && request.header(kActionHeader) != "1")
             return refuse(403, std::string("403 forbidden: missing the header ") + kActionHeader);
         try {
             handler(request, response);
@@ -226,7 +225,7 @@ void Dashboard::route(farm::HttpServer& server, const std::string& path, RouteKi
         server.post(path, checkedHere, std::move(guarded));
 }
 
-void Dashboard::loginPage(httplib::Response& response, int status, const std::string& problem,
+void Dashboard::loginPage(farm::HttpResponse& response, int status, const std::string& problem,
                           const std::string& next) const {
     const DashboardAsset* asset = findDashboardAsset("login.html");
     std::string page(asset->body);
@@ -237,31 +236,31 @@ void Dashboard::loginPage(httplib::Response& response, int status, const std::st
     replace("{{problem}}", htmlEscaped(problem));
     replace("{{next}}", htmlEscaped(safeNext(next)));
     response.status = status;
-    response.set_content(page, "text/html; charset=utf-8");
+    response.setContent(page, "text/html; charset=utf-8");
 }
 
-void Dashboard::login(const httplib::Request& request, httplib::Response& response) {
-    response.set_header("Cache-Control", "no-store");
-    response.set_header("X-Frame-Options", "DENY");
-    response.set_header("Content-Security-Policy",
-                        "default-src 'self'; style-src 'self' 'unsafe-inline'; "
-                        "frame-ancestors 'none'; form-action 'self'; base-uri 'none'");
-    const std::string next = request.get_param_value("next");
+void Dashboard::login(const farm::HttpRequest& request, farm::HttpResponse& response) {
+    response.addHeader("Cache-Control", "no-store");
+    response.addHeader("X-Frame-Options", "DENY");
+    response.addHeader("Content-Security-Policy",
+                       "default-src 'self'; style-src 'self' 'unsafe-inline'; "
+                       "frame-ancestors 'none'; form-action 'self'; base-uri 'none'");
+    const std::string next = request.param("next");
     if (request.method == "GET") return loginPage(response, 200, "", next);
     // A login posted from another site's page would log the browser in with that site's token.
-    const std::string origin = request.get_header_value("Origin");
+    const std::string origin = request.header("Origin");
     const std::string self =
-        std::string(m_options.tls ? "https://" : "http://") + request.get_header_value("Host");
+        std::string(m_options.tls ? "https://" : "http://") + request.header("Host");
     if (!origin.empty() && origin != self) {
         logWarning("dashboard.refused", {field("path", request.path), field("origin", origin)});
         return plainText(response, 403,
                          "403 forbidden: a login from another site (" + origin + ")");
     }
-    const DashboardRole role = m_sessions.roleOfToken(request.get_param_value("token"));
+    const DashboardRole role = m_sessions.roleOfToken(request.param("token"));
     if (role == DashboardRole::None) {
         logWarning(
             "dashboard.login_failed",
-            {field("peer", request.remote_addr + ":" + std::to_string(request.remote_port))});
+            {field("peer", request.remoteAddress + ":" + std::to_string(request.remotePort))});
         return loginPage(response, 401, "That token is not valid here.", next);
     }
     const std::string session = m_sessions.open(role, monotonicSeconds());
@@ -269,36 +268,36 @@ void Dashboard::login(const httplib::Request& request, httplib::Response& respon
                          "; Path=/; HttpOnly; SameSite=Strict; Max-Age=" +
                          std::to_string(int(DashboardSessions::kLifetimeSeconds));
     if (m_options.tls) cookie += "; Secure";
-    response.set_header("Set-Cookie", cookie);
+    response.addHeader("Set-Cookie", cookie);
     logInfo("dashboard.login",
             {field("role", role == DashboardRole::Operator ? "operator" : "viewer"),
-             field("peer", request.remote_addr)});
-    response.set_redirect(safeNext(next), 303);
+             field("peer", request.remoteAddress)});
+    response.redirect(safeNext(next), 303);
 }
 
-void Dashboard::serveAsset(httplib::Response& response, const std::string& name) const {
+void Dashboard::serveAsset(farm::HttpResponse& response, const std::string& name) const {
     const DashboardAsset* asset = findDashboardAsset(name);
     if (!asset) return plainText(response, 404, "404 not found: " + name);
     response.status = 200;
-    response.set_content(std::string(asset->body), contentTypeOf(name).c_str());
+    response.setContent(std::string(asset->body), contentTypeOf(name).c_str());
 }
 
 void Dashboard::install(farm::HttpServer& server) {
     // The login form is the one thing open to anyone: it shows a form and checks a token.
     const farm::RouteAccess anyone{{}, true};
-    auto login = [this](const httplib::Request& request, httplib::Response& response) {
+    auto login = [this](const farm::HttpRequest& request, farm::HttpResponse& response) {
         this->login(request, response);
     };
     server.get("/dashboard/login", anyone, login);
     server.post("/dashboard/login", anyone, login);
 
-    auto redirect = [](const httplib::Request&, httplib::Response& response) {
-        response.set_redirect("/dashboard/", 303);
+    auto redirect = [](const farm::HttpRequest&, farm::HttpResponse& response) {
+        response.redirect("/dashboard/", 303);
     };
     route(server, "/", RouteKind::Page, redirect);
     route(server, "/dashboard", RouteKind::Page, redirect);
     auto page = [this](const std::string& name) {
-        return [this, name](const httplib::Request&, httplib::Response& response) {
+        return [this, name](const farm::HttpRequest&, farm::HttpResponse& response) {
             serveAsset(response, name);
         };
     };
@@ -308,51 +307,52 @@ void Dashboard::install(farm::HttpServer& server) {
     route(server, "/dashboard/app.js", RouteKind::Api, page("app.js"));
     route(server, "/dashboard/style.css", RouteKind::Api, page("style.css"));
     route(server, "/dashboard/logout", RouteKind::Session,
-          [this](const httplib::Request& request, httplib::Response& response) {
+          [this](const farm::HttpRequest& request, farm::HttpResponse& response) {
               m_sessions.close(cookieValue(request, kSessionCookie));
-              response.set_header("Set-Cookie", std::string(kSessionCookie) +
-                                                    "=; Path=/; HttpOnly; SameSite=Strict; "
-                                                    "Max-Age=0");
+              response.addHeader("Set-Cookie", std::string(kSessionCookie) +
+                                                   "=; Path=/; HttpOnly; SameSite=Strict; "
+                                                   "Max-Age=0");
               jsonAnswer(response, "{}");
           });
 
     route(server, "/api/session", RouteKind::Api,
-          [this](const httplib::Request& request, httplib::Response& response) {
+          [this](const farm::HttpRequest& request, farm::HttpResponse& response) {
               const bool operatorRole = identify(request).role == DashboardRole::Operator;
               jsonAnswer(response, std::string("{\"role\":\"") +
                                        (operatorRole ? "operator" : "viewer") + "\"}");
           });
     route(server, "/api/jobs", RouteKind::Api,
-          [this](const httplib::Request&, httplib::Response& response) { jobsJson(response); });
+          [this](const farm::HttpRequest&, farm::HttpResponse& response) { jobsJson(response); });
     route(server, "/api/job", RouteKind::Api,
-          [this](const httplib::Request& request, httplib::Response& response) {
+          [this](const farm::HttpRequest& request, farm::HttpResponse& response) {
               jobJson(request, response);
           });
     route(server, "/api/job/preview.png", RouteKind::Api,
-          [this](const httplib::Request& request, httplib::Response& response) {
+          [this](const farm::HttpRequest& request, farm::HttpResponse& response) {
               previewPng(request, response);
           });
-    route(server, "/api/workers", RouteKind::Api,
-          [this](const httplib::Request&, httplib::Response& response) { workersJson(response); });
+    route(
+        server, "/api/workers", RouteKind::Api,
+        [this](const farm::HttpRequest&, farm::HttpResponse& response) { workersJson(response); });
     for (const char* action : {"pause", "resume", "retry", "cancel", "delete", "priority"})
         route(server, std::string("/api/job/") + action, RouteKind::Action,
-              [this, action = std::string(action)](const httplib::Request& request,
-                                                   httplib::Response& response) {
+              [this, action = std::string(action)](const farm::HttpRequest& request,
+                                                   farm::HttpResponse& response) {
                   jobAction(request, response, action);
               });
     route(server, "/api/worker/drain", RouteKind::Action,
-          [this](const httplib::Request& request, httplib::Response& response) {
+          [this](const farm::HttpRequest& request, farm::HttpResponse& response) {
               workerAction(request, response, true);
           });
     route(server, "/api/worker/undrain", RouteKind::Action,
-          [this](const httplib::Request& request, httplib::Response& response) {
+          [this](const farm::HttpRequest& request, farm::HttpResponse& response) {
               workerAction(request, response, false);
           });
 }
 
 // ---- the JSON API ------------------------------------------------------------------------------
 
-void Dashboard::jobsJson(httplib::Response& response) {
+void Dashboard::jobsJson(farm::HttpResponse& response) {
     v1::ListJobsResponse list;
     std::vector<v1::JobStatus> jobs = m_coordinator.listJobs(0);
     record(jobs);
@@ -360,9 +360,9 @@ void Dashboard::jobsJson(httplib::Response& response) {
     jsonAnswer(response, farm::toJson(list));
 }
 
-void Dashboard::jobJson(const httplib::Request& request, httplib::Response& response) {
+void Dashboard::jobJson(const farm::HttpRequest& request, farm::HttpResponse& response) {
     const uint64_t jobId = numberParam(request, "id");
-    const uint64_t after = request.has_param("after") ? numberParam(request, "after") : 0;
+    const uint64_t after = request.hasParam("after") ? numberParam(request, "after") : 0;
     std::vector<v1::JobStatus> jobs = m_coordinator.listJobs(jobId);
     record(jobs);
     std::string history;
@@ -374,11 +374,11 @@ void Dashboard::jobJson(const httplib::Request& request, httplib::Response& resp
                              "],\"log\":" + farm::toJson(m_coordinator.jobLog(jobId, after)) + "}");
 }
 
-void Dashboard::previewPng(const httplib::Request& request, httplib::Response& response) {
+void Dashboard::previewPng(const farm::HttpRequest& request, farm::HttpResponse& response) {
     const uint64_t jobId = numberParam(request, "id");
     float exposure = 0;
-    if (request.has_param("exposure")) {
-        const std::string text = request.get_param_value("exposure");
+    if (request.hasParam("exposure")) {
+        const std::string text = request.param("exposure");
         const auto result = std::from_chars(text.data(), text.data() + text.size(), exposure);
         if (result.ec != std::errc() || result.ptr != text.data() + text.size() ||
             !(std::abs(exposure) <= kMaxPngExposureStops))
@@ -405,11 +405,11 @@ void Dashboard::previewPng(const httplib::Request& request, httplib::Response& r
     }
     fs::remove(path);
     response.status = 200;
-    response.set_header("X-Alphorn-Units-Done", std::to_string(snapshot.status.units_done()));
-    response.set_content(bytes, "image/png");
+    response.addHeader("X-Alphorn-Units-Done", std::to_string(snapshot.status.units_done()));
+    response.setContent(std::move(bytes), "image/png");
 }
 
-void Dashboard::workersJson(httplib::Response& response) {
+void Dashboard::workersJson(farm::HttpResponse& response) {
     v1::ListWorkersResponse list;
     for (auto& worker : m_coordinator.listWorkers(true)) *list.add_workers() = std::move(worker);
     std::string held;
@@ -427,7 +427,7 @@ void Dashboard::workersJson(httplib::Response& response) {
     jsonAnswer(response, json + ",\"held_units\":{" + held + "}}");
 }
 
-void Dashboard::jobAction(const httplib::Request& request, httplib::Response& response,
+void Dashboard::jobAction(const farm::HttpRequest& request, farm::HttpResponse& response,
                           const std::string& action) {
     const uint64_t jobId = numberParam(request, "id");
     if (action == "delete") {
@@ -446,7 +446,7 @@ void Dashboard::jobAction(const httplib::Request& request, httplib::Response& re
     } else if (action == "cancel") {
         status = m_coordinator.cancel(jobId);
     } else {
-        const std::string text = request.get_param_value("priority");
+        const std::string text = request.param("priority");
         int32_t priority = 0;
         const auto result = std::from_chars(text.data(), text.data() + text.size(), priority);
         if (text.empty() || result.ec != std::errc() || result.ptr != text.data() + text.size())
@@ -458,7 +458,7 @@ void Dashboard::jobAction(const httplib::Request& request, httplib::Response& re
     jsonAnswer(response, "{\"job\":" + farm::toJson(status) + "}");
 }
 
-void Dashboard::workerAction(const httplib::Request& request, httplib::Response& response,
+void Dashboard::workerAction(const farm::HttpRequest& request, farm::HttpResponse& response,
                              bool draining) {
     const uint64_t workerId = numberParam(request, "id");
     const v1::WorkerInfo worker = m_coordinator.setWorkerDraining(workerId, draining);

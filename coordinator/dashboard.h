@@ -62,23 +62,24 @@ class Dashboard {
     // Page: GET, a caller without access gets the login form (401). Api: GET, 401 as text.
     // Action: POST by the operator only. Session: POST by either role (logging out).
     enum class RouteKind { Page, Api, Action, Session };
-    using Handler = std::function<void(const httplib::Request&, httplib::Response&)>;
-    Caller identify(const httplib::Request& request);
+    using Handler = std::function<void(const farm::HttpRequest&, farm::HttpResponse&)>;
+    Caller identify(const farm::HttpRequest& request);
     // Adds a route whose handler runs only for a caller the kind allows; every dashboard route
     // except the login form is added through here.
     void route(farm::HttpServer& server, const std::string& path, RouteKind kind, Handler handler);
-    void serveAsset(httplib::Response& response, const std::string& name) const;
-    void login(const httplib::Request& request, httplib::Response& response);
-    void loginPage(httplib::Response& response, int status, const std::string& problem,
+    void serveAsset(farm::HttpResponse& response, const std::string& name) const;
+    void login(const farm::HttpRequest& request, farm::HttpResponse& response);
+    void loginPage(farm::HttpResponse& response, int status, const std::string& problem,
                    const std::string& next) const;
 
-    void jobsJson(httplib::Response& response);
-    void jobJson(const httplib::Request& request, httplib::Response& response);
-    void previewPng(const httplib::Request& request, httplib::Response& response);
-    void workersJson(httplib::Response& response);
-    void jobAction(const httplib::Request& request, httplib::Response& response,
+    void jobsJson(farm::HttpResponse& response);
+    void jobJson(const farm::HttpRequest& request, farm::HttpResponse& response);
+    void previewPng(const farm::HttpRequest& request, farm::HttpResponse& response);
+    void workersJson(farm::HttpResponse& response);
+    void jobAction(const farm::HttpRequest& request, farm::HttpResponse& response,
                    const std::string& action);
-    void workerAction(const httplib::Request& request, httplib::Response& response, bool draining);
+    void workerAction(const farm::HttpRequest& request, farm::HttpResponse& response,
+                      bool draining);
     void samplingLoop();
 
     Coordinator& m_coordinator;

@@ -6,6 +6,7 @@
 #include "coordinator/dashboard.h"
 #include "common/scene/accel.h"
 
+#include "common/farm/http_test_client.h"
 #include "coordinator/coordinator_job_test.h"
 
 #include <gtest/gtest.h>
@@ -64,7 +65,7 @@ class DashboardTest : public CoordinatorJobTest {
                                                   DashboardOptions{kClientToken, kViewerToken});
         m_dashboard->install(*m_server);
         m_server->start();
-        m_client = std::make_unique<httplib::Client>("127.0.0.1", m_server->port());
+        m_client = std::make_unique<farm::HttpTestClient>("127.0.0.1", m_server->port());
     }
     void TearDown() override {
         m_server->stop();
@@ -73,34 +74,35 @@ class DashboardTest : public CoordinatorJobTest {
         CoordinatorJobTest::TearDown();
     }
 
-    static httplib::Headers bearer(const std::string& token) {
+    static farm::HttpHeaders bearer(const std::string& token) {
         return {{"Authorization", "Bearer " + token}};
     }
-    int getStatus(const std::string& path, const httplib::Headers& headers = {}) {
-        auto result = m_client->Get(path.c_str(), headers);
+    int getStatus(const std::string& path, const farm::HttpHeaders& headers = {}) {
+        auto result = m_client->get(path.c_str(), headers);
         return result ? result->status : -1;
     }
-    httplib::Result post(const std::string& path, const httplib::Headers& headers) {
-        return m_client->Post(path.c_str(), headers, "", "text/plain");
+    std::optional<farm::HttpTestResponse> post(const std::string& path,
+                                               const farm::HttpHeaders& headers) {
+        return m_client->post(path.c_str(), headers, "", "text/plain");
     }
     // Logs in with the form as a browser does; returns the response.
-    httplib::Result logIn(const std::string& token, const std::string& next = "",
-                          const std::string& origin = "") {
-        httplib::Headers headers;
-        if (!origin.empty()) headers.emplace("Origin", origin);
-        return m_client->Post("/dashboard/login", headers,
-                              httplib::Params{{"token", token}, {"next", next}});
+    std::optional<farm::HttpTestResponse> logIn(const std::string& token,
+                                                const std::string& next = "",
+                                                const std::string& origin = "") {
+        farm::HttpHeaders headers;
+        if (!origin.empty()) headers.emplace_back("Origin", origin);
+        return m_client->postForm("/dashboard/login", headers, {{"token", token}, {"next", next}});
     }
     // The "alphorn_session=..." pair of a login's Set-Cookie.
-    static std::string sessionCookie(const httplib::Result& login) {
-        const std::string header = login->get_header_value("Set-Cookie");
+    static std::string sessionCookie(const std::optional<farm::HttpTestResponse>& login) {
+        const std::string header = login->header("Set-Cookie");
         return header.substr(0, header.find(';'));
     }
 
     std::unique_ptr<Coordinator> m_coordinator;
     std::unique_ptr<farm::HttpServer> m_server;
     std::unique_ptr<Dashboard> m_dashboard;
-    std::unique_ptr<httplib::Client> m_client;
+    std::unique_ptr<farm::HttpTestClient> m_client;
 };
 
 TEST_F(DashboardTest, NothingWithoutATokenAndTheViewerCannotAct) {
@@ -110,7 +112,7 @@ TEST_F(DashboardTest, NothingWithoutATokenAndTheViewerCannotAct) {
     EXPECT_EQ(getStatus("/api/jobs", bearer("not-a-token")), 401);
     EXPECT_EQ(getStatus("/api/jobs", {{"Authorization", "Basic " + kClientToken}}), 401);
     // A page without access is the login form, with 401.
-    auto page = m_client->Get("/dashboard/workers");
+    auto page = m_client->get("/dashboard/workers");
     ASSERT_TRUE(page);
     EXPECT_EQ(page->status, 401);
     EXPECT_NE(page->body.find("name=\"token\""), std::string::npos);
@@ -133,25 +135,25 @@ TEST_F(DashboardTest, TheLoginFormSetsAStrictSessionCookie) {
     auto wrong = logIn("not-the-token");
     ASSERT_TRUE(wrong);
     EXPECT_EQ(wrong->status, 401);
-    EXPECT_FALSE(wrong->has_header("Set-Cookie"));
+    EXPECT_FALSE(wrong->hasHeader("Set-Cookie"));
     EXPECT_NE(wrong->body.find("not valid"), std::string::npos);
 
     auto login = logIn(kClientToken, "/dashboard/workers");
     ASSERT_TRUE(login);
     EXPECT_EQ(login->status, 303);
-    EXPECT_EQ(login->get_header_value("Location"), "/dashboard/workers");
-    const std::string setCookie = login->get_header_value("Set-Cookie");
+    EXPECT_EQ(login->header("Location"), "/dashboard/workers");
+    const std::string setCookie = login->header("Set-Cookie");
     EXPECT_NE(setCookie.find("HttpOnly"), std::string::npos);
     EXPECT_NE(setCookie.find("SameSite=Strict"), std::string::npos);
     EXPECT_EQ(setCookie.find("Secure"), std::string::npos);      // plain HTTP here
     EXPECT_EQ(setCookie.find(kClientToken), std::string::npos);  // never the token itself
-    const httplib::Headers cookie{{"Cookie", sessionCookie(login)}};
-    auto session = m_client->Get("/api/session", cookie);
+    const farm::HttpHeaders cookie{{"Cookie", sessionCookie(login)}};
+    auto session = m_client->get("/api/session", cookie);
     EXPECT_EQ(session->body, "{\"role\":\"operator\"}");
 
     // After a login the browser goes to a dashboard page of this server, nowhere else.
     for (const char* next : {"https://elsewhere.example/", "//elsewhere.example/", "/metrics"})
-        EXPECT_EQ(logIn(kClientToken, next)->get_header_value("Location"), "/dashboard/") << next;
+        EXPECT_EQ(logIn(kClientToken, next)->header("Location"), "/dashboard/") << next;
     // A login posted by another site's page is refused; one from this page is not.
     EXPECT_EQ(logIn(kClientToken, "", "https://elsewhere.example")->status, 403);
     EXPECT_EQ(
@@ -159,7 +161,7 @@ TEST_F(DashboardTest, TheLoginFormSetsAStrictSessionCookie) {
         303);
 
     auto viewer = logIn(kViewerToken);
-    auto viewerSession = m_client->Get("/api/session", {{"Cookie", sessionCookie(viewer)}});
+    auto viewerSession = m_client->get("/api/session", {{"Cookie", sessionCookie(viewer)}});
     EXPECT_EQ(viewerSession->body, "{\"role\":\"viewer\"}");
 }
 
@@ -191,7 +193,7 @@ TEST_F(DashboardTest, ServesAJobsStatusHistoryPreviewAndWorkers) {
     ASSERT_TRUE(held.has_work());
 
     // The workers page's current unit.
-    auto workers = m_client->Get("/api/workers", bearer(kViewerToken));
+    auto workers = m_client->get("/api/workers", bearer(kViewerToken));
     ASSERT_EQ(workers->status, 200);
     EXPECT_NE(
         workers->body.find("\"held_units\":{\"" + std::to_string(worker) +
@@ -210,7 +212,7 @@ TEST_F(DashboardTest, ServesAJobsStatusHistoryPreviewAndWorkers) {
         m_coordinator->report(render(lease, worker, compressed), compressed);
     }
     const std::string path = "/api/job?id=" + std::to_string(job.job_id());
-    auto status = m_client->Get(path.c_str(), bearer(kClientToken));
+    auto status = m_client->get(path.c_str(), bearer(kClientToken));
     ASSERT_EQ(status->status, 200);
     EXPECT_NE(status->body.find("\"state\":\"JOB_STATE_DONE\""), std::string::npos);
     const std::vector<Dashboard::EstimatePoint> history = m_dashboard->history(job.job_id());
@@ -222,10 +224,10 @@ TEST_F(DashboardTest, ServesAJobsStatusHistoryPreviewAndWorkers) {
     EXPECT_NE(status->body.find("JOB_EVENT_FINISHED"), std::string::npos);
 
     // The preview: a PNG of the job's size (IHDR: width and height, big-endian, at byte 16).
-    auto png = m_client->Get(("/api/job/preview.png?id=" + std::to_string(job.job_id())).c_str(),
+    auto png = m_client->get(("/api/job/preview.png?id=" + std::to_string(job.job_id())).c_str(),
                              bearer(kViewerToken));
     ASSERT_EQ(png->status, 200);
-    EXPECT_EQ(png->get_header_value("Content-Type"), "image/png");
+    EXPECT_EQ(png->header("Content-Type"), "image/png");
     ASSERT_GT(png->body.size(), 24u);
     EXPECT_EQ(png->body.substr(1, 3), "PNG");
     auto be32 = [&](size_t at) {

@@ -10,7 +10,7 @@ PACKAGES=(
   libembree-dev libtbb-dev libpugixml-dev libtinyobjloader-dev libpng-dev
   libboost-dev libsqlite3-dev libzstd-dev libnanoflann-dev libpcg-cpp-dev libcli11-dev libssl-dev
   clang-14 libclang-rt-14-dev
-  libcpp-httplib-dev prometheus-cpp-dev
+  prometheus-cpp-dev
 )
 # Test and benchmark tools: a real Prometheus server scrapes a test farm; headless Chromium
 # (through Selenium) drives the web dashboard; charts are drawn with matplotlib.

@@ -3,6 +3,7 @@
 #include "common/farm/http_server.h"
 
 #include "common/core/error.h"
+#include "common/farm/http_test_client.h"
 
 #include <gtest/gtest.h>
 #include <openssl/evp.h>
@@ -20,7 +21,7 @@ namespace fs = std::filesystem;
 const std::string kToken = "0123456789abcdef0123456789abcdef";
 const std::string kOtherToken = "fedcba9876543210fedcba9876543210";
 
-httplib::Headers bearer(const std::string& token) {
+HttpHeaders bearer(const std::string& token) {
     return {{"Authorization", "Bearer " + token}};
 }
 
@@ -28,15 +29,14 @@ const std::string kViewerToken = "00001111222233334444555566667777";
 
 // /secret opens to kToken and kOtherToken, /view to kViewerToken only, /open to anyone.
 void addRoutes(HttpServer& server) {
-    server.get("/secret", {{kToken, kOtherToken}},
-               [](const httplib::Request&, httplib::Response& response) {
-                   response.set_content("the secret\n", "text/plain");
-               });
-    server.get("/view", {{kViewerToken}}, [](const httplib::Request&, httplib::Response& response) {
-        response.set_content("a view\n", "text/plain");
+    server.get("/secret", {{kToken, kOtherToken}}, [](const HttpRequest&, HttpResponse& response) {
+        response.setContent("the secret\n", "text/plain");
     });
-    server.get("/open", {{}, true}, [](const httplib::Request&, httplib::Response& response) {
-        response.set_content("open to all\n", "text/plain");
+    server.get("/view", {{kViewerToken}}, [](const HttpRequest&, HttpResponse& response) {
+        response.setContent("a view\n", "text/plain");
+    });
+    server.get("/open", {{}, true}, [](const HttpRequest&, HttpResponse& response) {
+        response.setContent("open to all\n", "text/plain");
     });
 }
 
@@ -45,29 +45,29 @@ TEST(HttpServerTest, ServesOnlyRequestsWithAnAcceptedToken) {
     addRoutes(server);
     server.start();
     ASSERT_GT(server.port(), 0);
-    httplib::Client client("127.0.0.1", server.port());
+    HttpTestClient client("127.0.0.1", server.port());
 
-    auto ok = client.Get("/secret", bearer(kToken));
+    auto ok = client.get("/secret", bearer(kToken));
     ASSERT_TRUE(ok);
     EXPECT_EQ(ok->status, 200);
     EXPECT_EQ(ok->body, "the secret\n");
-    auto second = client.Get("/secret", bearer(kOtherToken));
+    auto second = client.get("/secret", bearer(kOtherToken));
     ASSERT_TRUE(second);
     EXPECT_EQ(second->status, 200);
 
-    auto none = client.Get("/secret");
+    auto none = client.get("/secret");
     ASSERT_TRUE(none);
     EXPECT_EQ(none->status, 401);
-    EXPECT_EQ(none->get_header_value("WWW-Authenticate"), "Bearer realm=\"alphorn\"");
+    EXPECT_EQ(none->header("WWW-Authenticate"), "Bearer realm=\"alphorn\"");
     EXPECT_EQ(none->body.find("the secret"), std::string::npos);
     for (const std::string& wrong :
          {kToken.substr(0, 31), kToken + "0", std::string("ffffffffffffffffffffffffffffffff"),
           std::string("")}) {
-        auto refused = client.Get("/secret", bearer(wrong));
+        auto refused = client.get("/secret", bearer(wrong));
         ASSERT_TRUE(refused);
         EXPECT_EQ(refused->status, 401) << "token \"" << wrong << "\"";
     }
-    auto basic = client.Get("/secret", {{"Authorization", "Basic " + kToken}});
+    auto basic = client.get("/secret", {{"Authorization", "Basic " + kToken}});
     ASSERT_TRUE(basic);
     EXPECT_EQ(basic->status, 401);
     server.stop();
@@ -77,32 +77,31 @@ TEST(HttpServerTest, ATokenOpensOnlyItsRoutes) {
     HttpServer server({"127.0.0.1:0"});
     addRoutes(server);
     server.start();
-    httplib::Client client("127.0.0.1", server.port());
-    auto viewer = client.Get("/view", bearer(kViewerToken));
+    HttpTestClient client("127.0.0.1", server.port());
+    auto viewer = client.get("/view", bearer(kViewerToken));
     ASSERT_TRUE(viewer);
     EXPECT_EQ(viewer->status, 200);
-    auto other = client.Get("/secret", bearer(kViewerToken));
+    auto other = client.get("/secret", bearer(kViewerToken));
     ASSERT_TRUE(other);
     EXPECT_EQ(other->status, 403);
     EXPECT_EQ(other->body.find("the secret"), std::string::npos);
-    auto reverse = client.Get("/view", bearer(kToken));
+    auto reverse = client.get("/view", bearer(kToken));
     ASSERT_TRUE(reverse);
     EXPECT_EQ(reverse->status, 403);
 }
 
 TEST(HttpServerTest, PostRoutesAreGuardedAlike) {
     HttpServer server({"127.0.0.1:0"});
-    server.post("/action", {{kToken}},
-                [](const httplib::Request& request, httplib::Response& response) {
-                    response.set_content("did " + request.body + "\n", "text/plain");
-                });
+    server.post("/action", {{kToken}}, [](const HttpRequest& request, HttpResponse& response) {
+        response.setContent("did " + request.body + "\n", "text/plain");
+    });
     server.start();
-    httplib::Client client("127.0.0.1", server.port());
-    auto done = client.Post("/action", bearer(kToken), "it", "text/plain");
+    HttpTestClient client("127.0.0.1", server.port());
+    auto done = client.post("/action", bearer(kToken), "it", "text/plain");
     ASSERT_TRUE(done);
     EXPECT_EQ(done->status, 200);
     EXPECT_EQ(done->body, "did it\n");
-    auto refused = client.Post("/action", "it", "text/plain");
+    auto refused = client.post("/action", {}, "it", "text/plain");
     ASSERT_TRUE(refused);
     EXPECT_EQ(refused->status, 401);
     EXPECT_EQ(refused->body.find("did"), std::string::npos);
@@ -110,7 +109,7 @@ TEST(HttpServerTest, PostRoutesAreGuardedAlike) {
 
 TEST(HttpServerTest, ARouteNeedsATokenOrExplicitlyAnyone) {
     HttpServer server({"127.0.0.1:0"});
-    const auto handler = [](const httplib::Request&, httplib::Response&) {};
+    const auto handler = [](const HttpRequest&, HttpResponse&) {};
     EXPECT_THROW(server.get("/nobody", {}, handler), Error);
     EXPECT_THROW(server.get("/empty", {{""}}, handler), Error);
 }
@@ -119,16 +118,16 @@ TEST(HttpServerTest, UnknownPathsAre401WithoutATokenAnd404WithOne) {
     HttpServer server({"127.0.0.1:0"});
     addRoutes(server);
     server.start();
-    httplib::Client client("127.0.0.1", server.port());
-    auto anonymous = client.Get("/nothing-here");
+    HttpTestClient client("127.0.0.1", server.port());
+    auto anonymous = client.get("/nothing-here");
     ASSERT_TRUE(anonymous);
     EXPECT_EQ(anonymous->status, 401);
-    auto known = client.Get("/nothing-here", bearer(kToken));
+    auto known = client.get("/nothing-here", bearer(kToken));
     ASSERT_TRUE(known);
     EXPECT_EQ(known->status, 404);
     EXPECT_EQ(known->body, "404 not found: /nothing-here\n");
     // Paths are literal, not regular expressions: "/secre." does not reach "/secret".
-    auto pattern = client.Get("/secre.", bearer(kToken));
+    auto pattern = client.get("/secre.", bearer(kToken));
     ASSERT_TRUE(pattern);
     EXPECT_EQ(pattern->status, 404);
 }
@@ -137,12 +136,12 @@ TEST(HttpServerTest, AnonymousRoutesNeedNoToken) {
     HttpServer server({"127.0.0.1:0"});
     addRoutes(server);
     server.start();
-    httplib::Client client("127.0.0.1", server.port());
-    auto open = client.Get("/open");
+    HttpTestClient client("127.0.0.1", server.port());
+    auto open = client.get("/open");
     ASSERT_TRUE(open);
     EXPECT_EQ(open->status, 200);
     EXPECT_EQ(open->body, "open to all\n");
-    auto secret = client.Get("/secret");
+    auto secret = client.get("/secret");
     ASSERT_TRUE(secret);
     EXPECT_EQ(secret->status, 401);
 }
@@ -213,21 +212,19 @@ TEST(HttpServerTest, ServesHttpsWithTheDaemonsCertificate) {
     addRoutes(server);
     server.start();
 
-    httplib::SSLClient client("127.0.0.1", server.port());
-    client.set_ca_cert_path(files.certPath.c_str());
-    client.enable_server_certificate_verification(true);
-    auto ok = client.Get("/secret", bearer(kToken));
-    ASSERT_TRUE(ok) << httplib::to_string(ok.error());
+    HttpTestClient client("127.0.0.1", server.port(), files.certPath);
+    auto ok = client.get("/secret", bearer(kToken));
+    ASSERT_TRUE(ok) << client.lastError();
     EXPECT_EQ(ok->status, 200);
     EXPECT_EQ(ok->body, "the secret\n");
-    auto refused = client.Get("/secret");
+    auto refused = client.get("/secret");
     ASSERT_TRUE(refused);
     EXPECT_EQ(refused->status, 401);
 
     // A plaintext request gets no HTTP answer from the TLS port.
-    httplib::Client plain("127.0.0.1", server.port());
-    plain.set_read_timeout(2, 0);
-    auto plainAnswer = plain.Get("/secret", bearer(kToken));
+    HttpTestClient plain("127.0.0.1", server.port());
+    plain.setTimeout(2);
+    auto plainAnswer = plain.get("/secret", bearer(kToken));
     EXPECT_FALSE(plainAnswer && plainAnswer->status == 200);
 }
 

@@ -272,12 +272,12 @@ std::string metricsText(const std::vector<std::shared_ptr<prometheus::Collectabl
 void serveMetrics(HttpServer& server,
                   std::vector<std::shared_ptr<prometheus::Collectable>> collectables,
                   const RouteAccess& access) {
-    server.get("/metrics", access,
-               [collectables = std::move(collectables)](const httplib::Request&,
-                                                        httplib::Response& response) {
-                   response.set_content(metricsText(collectables),
-                                        "text/plain; version=0.0.4; charset=utf-8");
-               });
+    server.get(
+        "/metrics", access,
+        [collectables = std::move(collectables)](const HttpRequest&, HttpResponse& response) {
+            response.setContent(metricsText(collectables),
+                                "text/plain; version=0.0.4; charset=utf-8");
+        });
 }
 
 }  // namespace alphorn::farm

@@ -3,6 +3,7 @@
 #include "common/farm/metrics.h"
 
 #include "common/farm/http_server.h"
+#include "common/farm/http_test_client.h"
 
 #include <gtest/gtest.h>
 #include <prometheus/collectable.h>
@@ -93,20 +94,19 @@ TEST(MetricsTest, MetricsAreServedWithATokenOrAnonymouslyWhenAllowed) {
     HttpServer guarded({"127.0.0.1:0"});
     serveMetrics(guarded, {CoordinatorMetrics::registry()}, {{kToken}});
     guarded.start();
-    httplib::Client guardedClient("127.0.0.1", guarded.port());
-    EXPECT_EQ(guardedClient.Get("/metrics")->status, 401);
-    auto scraped = guardedClient.Get("/metrics", {{"Authorization", "Bearer " + kToken}});
+    HttpTestClient guardedClient("127.0.0.1", guarded.port());
+    EXPECT_EQ(guardedClient.get("/metrics")->status, 401);
+    auto scraped = guardedClient.get("/metrics", {{"Authorization", "Bearer " + kToken}});
     ASSERT_TRUE(scraped);
     EXPECT_EQ(scraped->status, 200);
-    EXPECT_EQ(scraped->get_header_value("Content-Type"),
-              "text/plain; version=0.0.4; charset=utf-8");
+    EXPECT_EQ(scraped->header("Content-Type"), "text/plain; version=0.0.4; charset=utf-8");
     EXPECT_GE(sample(scraped->body, "alphorn_units_handed_back_total"), 1);
 
     HttpServer open({"127.0.0.1:0"});
     serveMetrics(open, {WorkerMetrics::registry()}, {{}, true});
     open.start();
-    httplib::Client openClient("127.0.0.1", open.port());
-    auto anonymous = openClient.Get("/metrics");
+    HttpTestClient openClient("127.0.0.1", open.port());
+    auto anonymous = openClient.get("/metrics");
     ASSERT_TRUE(anonymous);
     EXPECT_EQ(anonymous->status, 200);
     EXPECT_GE(sample(anonymous->body, "alphorn_worker_units_failed_total"), 1);

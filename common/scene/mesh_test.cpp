@@ -353,7 +353,8 @@ TEST(WavefrontOBJ, CountsBeforeBuildingAreTheLoadedMeshes) {
     EXPECT_FALSE(polygons.uvs);
     for (const std::string mesh : {"sphere.obj", "quad.obj", "triangle.obj"}) {
         const ObjCounts counts = countObjFile(meshFile(mesh));
-        const Mesh& loaded = *sceneWithMesh(mesh)->meshes().at(0);
+        const auto scene = sceneWithMesh(mesh);  // owns the mesh below
+        const Mesh& loaded = *scene->meshes().at(0);
         EXPECT_EQ(counts.triangles, loaded.triangleCount()) << mesh;
         EXPECT_EQ(counts.vertices, loaded.vertexCount()) << mesh;
         EXPECT_EQ(counts.normals, loaded.normals().cols() > 0) << mesh;

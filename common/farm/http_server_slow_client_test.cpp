@@ -5,19 +5,16 @@
 // connections beyond the caps are closed right away.
 #include "common/farm/http_server.h"
 #include "common/farm/http_test_client.h"
+#include "common/farm/tls_testing.h"
 
 #include <gtest/gtest.h>
 #include <netinet/in.h>
-#include <openssl/evp.h>
-#include <openssl/pem.h>
-#include <openssl/x509.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include <arpa/inet.h>
 #include <chrono>
-#include <cstdio>
 #include <filesystem>
 #include <thread>
 
@@ -89,37 +86,6 @@ const std::string kPartialRequest = "GET /open HTTP/1.1\r\nHost: 127.0.0.1\r\n";
 void addOpenRoute(HttpServer& server) {
     // Only `status`: the request and response types are not this test's subject.
     server.get("/open", {{}, true}, [](const auto&, auto& response) { response.status = 200; });
-}
-
-// A self-signed certificate for 127.0.0.1, written as PEM files.
-struct TestCertificate {
-    std::string certPath, keyPath;
-};
-
-TestCertificate makeCertificate(const fs::path& directory) {
-    fs::create_directories(directory);
-    TestCertificate files{(directory / "cert.pem").string(), (directory / "key.pem").string()};
-    EVP_PKEY* key = EVP_EC_gen("P-256");
-    X509* cert = X509_new();
-    X509_set_version(cert, 2);
-    ASN1_INTEGER_set(X509_get_serialNumber(cert), 1);
-    X509_gmtime_adj(X509_getm_notBefore(cert), -60);
-    X509_gmtime_adj(X509_getm_notAfter(cert), 3600);
-    X509_set_pubkey(cert, key);
-    X509_NAME* name = X509_get_subject_name(cert);
-    X509_NAME_add_entry_by_txt(name, "CN", MBSTRING_ASC,
-                               reinterpret_cast<const unsigned char*>("localhost"), -1, -1, 0);
-    X509_set_issuer_name(cert, name);
-    X509_sign(cert, key, EVP_sha256());
-    FILE* certFile = std::fopen(files.certPath.c_str(), "w");
-    PEM_write_X509(certFile, cert);
-    std::fclose(certFile);
-    FILE* keyFile = std::fopen(files.keyPath.c_str(), "w");
-    PEM_write_PrivateKey(keyFile, key, nullptr, nullptr, 0, nullptr, nullptr);
-    std::fclose(keyFile);
-    X509_free(cert);
-    EVP_PKEY_free(key);
-    return files;
 }
 
 // Many more stalled clients than threads, and a deadline far longer than the test: only a

@@ -9,6 +9,7 @@
 #include <tbb/global_control.h>
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 
@@ -35,6 +36,11 @@ int main(int argc, char** argv) {
     app.add_option("--name", options.name, "Name shown by `alphorn workers` (default: host:pid)");
     app.add_option("--drain-seconds", options.drainSeconds,
                    "On SIGTERM, how long to keep trying to deliver");
+    double unloadAfterSeconds = 30.0;
+    app.add_option("--unload-after", unloadAfterSeconds,
+                   "How long an idle worker keeps the last job's scene and photon maps loaded, in "
+                   "seconds; then it releases them and gives the memory back")
+        ->check(CLI::Range(0.0, 1e6));
     std::string httpListen, httpPortFile, httpTlsCert, httpTlsKey, metricsTokenFile;
     bool anonymousMetrics = false;
     CLI::Option* http = app.add_option(
@@ -64,6 +70,8 @@ int main(int argc, char** argv) {
         return app.exit(e) == 0 ? 0 : 1;
     }
     options.cacheBytes = static_cast<uint64_t>(cacheGiB * double(uint64_t(1) << 30));
+    options.unloadAfter =
+        std::chrono::milliseconds(static_cast<int64_t>(std::llround(unloadAfterSeconds * 1000.0)));
 
     // A file size limit (ulimit -f) must fail the cache write that exceeds it, like a full disk,
     // not kill the worker.

@@ -16,6 +16,7 @@
 #include "common/scene/accel.h"
 #include "common/scene/scene.h"
 
+#include <absl/strings/str_format.h>
 #include <absl/strings/str_replace.h>
 #include <google/protobuf/io/coded_stream.h>
 #include <google/protobuf/io/zero_copy_stream_impl_lite.h>
@@ -313,6 +314,17 @@ Worker::JobContext& Worker::prepareJob(const v1::JobDescription& job) {
     return *m_job;
 }
 
+void Worker::unloadIdleJob(double idleSeconds) {
+    const uint64_t jobId = m_job->jobId;
+    const uint64_t residentBefore = residentMemoryBytes();
+    m_job.reset();
+    returnFreeMemoryToSystem();
+    logInfo("job.unloaded",
+            {field("job", jobId), field("idle_seconds", absl::StrFormat("%.1f", idleSeconds)),
+             field("resident_before", formatBytes(residentBefore)),
+             field("resident_after", formatBytes(residentMemoryBytes()))});
+}
+
 std::string Worker::materializeJobBundle(const farm::Bundle& bundle, const std::string& directory) {
     return farm::materializeBundle(bundle, directory, [&](const std::string& sha) {
         return m_cache.get(sha, [&](const std::string& hash, const std::string& temporary) {
@@ -593,7 +605,12 @@ int Worker::run() {
             logInfo(drainedByClient ? "worker.drain_requested" : "worker.undrained",
                     {field("worker", m_workerId.load()), field("by", "client")});
         }
-        if (!lease.has_work()) continue;
+        if (!lease.has_work()) {
+            // askingForWork runs from the end of the last unit.
+            if (m_job && askingForWork.seconds() * 1000.0 >= double(m_options.unloadAfter.count()))
+                unloadIdleJob(askingForWork.seconds());
+            continue;
+        }
         farm::WorkerMetrics::leaseWaited(askingForWork.seconds());
         {
             std::lock_guard lock(m_leaseMutex);

@@ -50,6 +50,10 @@ struct WorkerOptions {
     std::chrono::milliseconds registerTimeout{5000};
     std::chrono::milliseconds acquireTimeout{10000};
     std::chrono::milliseconds deliverTimeout{120000};
+    // How long an idle worker keeps the last job's scene and pass data loaded. More units of
+    // that job reuse them, but a render node without work should give its memory back: a large
+    // scene or photon map can hold gigabytes.
+    std::chrono::milliseconds unloadAfter{30000};
     // Called with each backoff delay before the worker waits it out (tests watch the policy).
     std::function<void(std::chrono::milliseconds)> onBackoff;
     // Called on the rendering thread after a unit is leased and before it is rendered (tests
@@ -88,6 +92,8 @@ class Worker {
     void sayGoodbye();
     void heartbeatLoop();
     JobContext& prepareJob(const v1::JobDescription& job);
+    // Releases the loaded scene and pass data after `idleSeconds` without a unit.
+    void unloadIdleJob(double idleSeconds);
     // The per-pass data of passes [begin, end), built or reused; `built` says which.
     const std::vector<std::shared_ptr<const PassData>>& passDataFor(JobContext& context,
                                                                     uint32_t begin, uint32_t end,

@@ -376,6 +376,42 @@ TEST_F(WorkerTest, LeasesRendersAndDeliversTheUnitItWasGiven) {
     EXPECT_EQ(m_fake.registrations, 1);
 }
 
+// The same unit leased twice with idle long polls between: `unloadAfter` decides whether the
+// second finds the job's scene and pass data still loaded (the pass data is not built again).
+class WorkerIdleTest : public WorkerTest {
+  protected:
+    Report renderTwiceWithIdlePolls() {
+        m_server.start();
+        const TestJob job = makeGoodJob(5);
+        m_fake.queueLease(lease(job, 51, 0));
+        startWorker();
+        EXPECT_TRUE(waitForAccepted(51));
+        const int callsAfterDelivery = [&] {
+            std::lock_guard lock(m_fake.mutex);
+            return m_fake.acquireCalls;
+        }();
+        // Two more calls: the first of them has come back empty and the worker has acted on it.
+        EXPECT_TRUE(m_fake.waitFor([&] { return m_fake.acquireCalls >= callsAfterDelivery + 2; }));
+        m_fake.queueLease(lease(job, 52, 0));
+        EXPECT_TRUE(waitForAccepted(52));
+        stopWorker();
+        EXPECT_TRUE(m_fake.reportsFor(51).at(0).header.built_pass_data());
+        const Report second = m_fake.reportsFor(52).at(0);
+        EXPECT_EQ(deliveredFilm(second), expectedFilm(job, 0));
+        return second;
+    }
+};
+
+TEST_F(WorkerIdleTest, KeepsTheJobLoadedThroughAShortIdle) {
+    m_options.unloadAfter = std::chrono::hours(1);
+    EXPECT_FALSE(renderTwiceWithIdlePolls().header.built_pass_data());
+}
+
+TEST_F(WorkerIdleTest, UnloadsTheJobAfterIdlingLongerThanUnloadAfter) {
+    m_options.unloadAfter = 0ms;
+    EXPECT_TRUE(renderTwiceWithIdlePolls().header.built_pass_data());
+}
+
 TEST_F(WorkerTest, DiscardedResultIsNotResentAndWorkGoesOn) {
     m_server.start();
     const TestJob job = makeGoodJob(1);

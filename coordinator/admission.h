@@ -40,6 +40,8 @@ struct AdmittedJob {
 // empty or at most 64 characters of [0-9A-Za-z_-]: it is stored, logged and compared, and a
 // client sends a random hex string.
 void checkSubmissionId(const std::string& submissionId);
+// The same for RetryJobRequest.request_id and DeleteJobRequest.request_id.
+void checkRequestId(const std::string& requestId);
 
 // Checks and completes a submission; materializes its bundle under `stagingParent`. Throws
 // FarmError (InvalidArgument, FailedPrecondition or ResourceExhausted) and then leaves nothing

@@ -194,6 +194,11 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
         schedule.set_initial_radius(radiusSchedule->initialRadius);
         schedule.set_alpha(radiusSchedule->alpha);
     }
+    // Fields a newer client sent that this coordinator does not know: it cannot check them, and
+    // kept in the stored description, they would be serialized at its end here but in field
+    // order by a coordinator that knows them, whose start would then find the record's digest
+    // (JobStore::recordDigest) changed and fail the job as damaged.
+    admitted.description.DiscardUnknownFields();
     return admitted;
 }
 

@@ -26,7 +26,9 @@ struct AdmissionLimits {
 };
 
 struct AdmittedJob {
-    v1::JobDescription description;  // bundle, settings with defaults, radius schedule; no id
+    // Bundle, settings with defaults, radius schedule; no id, and none of the request's fields
+    // this coordinator does not know.
+    v1::JobDescription description;
     farm::JobGrid grid;
     int filterBorder = 0;
     // Whether the job's films keep the smaller radius's image (a progressive photon mapper's):

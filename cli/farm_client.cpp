@@ -64,9 +64,9 @@ void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options) {
     sub->add_option("--reconnect-seconds", options.reconnectSeconds,
                     "How long to wait for an unreachable or restarting coordinator before giving "
                     "up: at the start, and after a call the coordinator broke by going away, "
-                    "which is then asked again (every command but retry and delete; submit "
-                    "asks again with its submission id, also when a call outlasts its time "
-                    "limit, and never creates a second job)")
+                    "which is then asked again (submit with its submission id, also when a "
+                    "call outlasts its time limit, and never creates a second job; retry and "
+                    "delete with their request id, and never act twice)")
         ->capture_default_str()
         ->check(CLI::Range(0.0, 86400.0));
     sub->add_flag("--json", options.json, "Machine-readable JSON on stdout");

@@ -7,6 +7,7 @@
 
 #include "common/core/image.h"
 #include "common/farm/convert.h"
+#include "common/farm/rpc.h"
 
 #include <absl/strings/str_format.h>
 
@@ -346,6 +347,34 @@ Command addJobChangeCommand(CLI::App& app, const char* name, const char* descrip
             }};
 }
 
+// The id of a retry or delete: the same on every attempt, so that a coordinator that made the
+// change and restarted before its answer arrived recognises the call asked again and answers
+// as the first time (RetryJobRequest.request_id).
+std::string newRequestId() {
+    return farm::generateToken().substr(0, 32);
+}
+
+// Runs a retry's or delete's call the way callChecked() does, asking again with the same request
+// id after a coordinator restart. A coordinator older than request ids refuses the change asked
+// again, which its first call may have made: the error then says so.
+void callWithRequestId(FarmClient& client, const std::string& what, const char* rpc,
+                       const std::function<grpc::Status()>& attempt) {
+    int attempts = 0;
+    const grpc::Status status = client.callRetrying(what, [&] {
+        ++attempts;
+        return attempt();
+    });
+    const bool refusedAsDone = status.error_code() == grpc::StatusCode::FAILED_PRECONDITION ||
+                               status.error_code() == grpc::StatusCode::NOT_FOUND;
+    if (attempts > 1 && refusedAsDone)
+        fail(
+            "%s: %s (asked again after the coordinator went away; a coordinator older than "
+            "this client does not recognise a request asked again, and its first call may "
+            "have done it: `alphorn status` shows the job)",
+            rpc, status.error_message());
+    FarmClient::check(status, rpc);
+}
+
 std::string eventKindText(v1::JobEventKind kind) {
     // JOB_EVENT_PRIORITY_CHANGED -> priority-changed
     std::string name = v1::JobEventKind_Name(kind);
@@ -381,9 +410,11 @@ std::vector<Command> addControlCommands(CLI::App& app) {
         [](FarmClient& client, uint64_t jobId, std::string& said) {
             v1::RetryJobRequest request;
             request.set_job_id(jobId);
+            request.set_request_id(newRequestId());
             v1::JobControlResponse response;
-            FarmClient::check(client.stub().RetryJob(client.context().get(), request, &response),
-                              "RetryJob");
+            callWithRequestId(client, absl::StrFormat("retrying job %u", jobId), "RetryJob", [&] {
+                return client.stub().RetryJob(client.context().get(), request, &response);
+            });
             said =
                 absl::StrFormat("job %u runs again: %u of %u units kept from its checkpoint", jobId,
                                 response.status().units_done(), response.status().units_total());
@@ -453,10 +484,12 @@ std::vector<Command> addControlCommands(CLI::App& app) {
                  v1::DeleteJobRequest request;
                  request.set_job_id(*jobId);
                  request.set_cancel_running(*cancel);
+                 request.set_request_id(newRequestId());
                  v1::DeleteJobResponse response;
-                 FarmClient::check(
-                     client.stub().DeleteJob(client.context().get(), request, &response),
-                     "DeleteJob");
+                 callWithRequestId(
+                     client, absl::StrFormat("deleting job %u", *jobId), "DeleteJob", [&] {
+                         return client.stub().DeleteJob(client.context().get(), request, &response);
+                     });
                  if (connection->json)
                      std::cout << toJson(response) << "\n";
                  else

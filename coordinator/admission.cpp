@@ -40,20 +40,29 @@ uint32_t defaultPassesPerUnit(const v1::JobSettings& settings, const Vector2i& s
     return static_cast<uint32_t>(std::max<uint64_t>(minimum, std::min(bySamples, byPreview)));
 }
 
-}  // namespace
-
-void checkSubmissionId(const std::string& submissionId) {
-    constexpr size_t kMaxSubmissionIdChars = 64;
+// An id a client chose for a call it may send again: it is stored, logged and compared, and a
+// client sends a random hex string.
+void checkClientChosenId(const std::string& id, const char* name) {
+    constexpr size_t kMaxIdChars = 64;
     const bool wellFormed =
-        submissionId.size() <= kMaxSubmissionIdChars &&
-        std::all_of(submissionId.begin(), submissionId.end(), [](char c) {
+        id.size() <= kMaxIdChars && std::all_of(id.begin(), id.end(), [](char c) {
             return absl::ascii_isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
         });
     if (!wellFormed)
         throw FarmError(Kind::InvalidArgument,
-                        absl::StrFormat("the submission id must be at most %u characters of "
-                                        "0-9, A-Z, a-z, _ and - (got %u bytes)",
-                                        kMaxSubmissionIdChars, submissionId.size()));
+                        absl::StrFormat("the %s must be at most %u characters of 0-9, A-Z, a-z, "
+                                        "_ and - (got %u bytes)",
+                                        name, kMaxIdChars, id.size()));
+}
+
+}  // namespace
+
+void checkSubmissionId(const std::string& submissionId) {
+    checkClientChosenId(submissionId, "submission id");
+}
+
+void checkRequestId(const std::string& requestId) {
+    checkClientChosenId(requestId, "request id");
 }
 
 AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs,
@@ -185,6 +194,11 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
         schedule.set_initial_radius(radiusSchedule->initialRadius);
         schedule.set_alpha(radiusSchedule->alpha);
     }
+    // Fields a newer client sent that this coordinator does not know: it cannot check them, and
+    // kept in the stored description, they would be serialized at its end here but in field
+    // order by a coordinator that knows them, whose start would then find the record's digest
+    // (JobStore::recordDigest) changed and fail the job as damaged.
+    admitted.description.DiscardUnknownFields();
     return admitted;
 }
 

@@ -26,7 +26,9 @@ struct AdmissionLimits {
 };
 
 struct AdmittedJob {
-    v1::JobDescription description;  // bundle, settings with defaults, radius schedule; no id
+    // Bundle, settings with defaults, radius schedule; no id, and none of the request's fields
+    // this coordinator does not know.
+    v1::JobDescription description;
     farm::JobGrid grid;
     int filterBorder = 0;
     // Whether the job's films keep the smaller radius's image (a progressive photon mapper's):
@@ -40,6 +42,8 @@ struct AdmittedJob {
 // empty or at most 64 characters of [0-9A-Za-z_-]: it is stored, logged and compared, and a
 // client sends a random hex string.
 void checkSubmissionId(const std::string& submissionId);
+// The same for RetryJobRequest.request_id and DeleteJobRequest.request_id.
+void checkRequestId(const std::string& requestId);
 
 // Checks and completes a submission; materializes its bundle under `stagingParent`. Throws
 // FarmError (InvalidArgument, FailedPrecondition or ResourceExhausted) and then leaves nothing

@@ -50,6 +50,12 @@ namespace alphorn::coordinator {
 // preview); beyond them a PNG is all black or all white, and NaN or infinity mean nothing.
 inline constexpr float kMaxPngExposureStops = 20;
 
+// How long a retry or delete sent with a request id is remembered (ControlRequestRow): longer
+// than any client goes on asking again (its --reconnect-seconds is at most a day, after the
+// call broke), so that every repeated request is recognised, and bounded, since a delete's
+// record outlives its job.
+inline constexpr double kControlRequestKeepSeconds = 2 * 24 * 3600.0;
+
 struct CoordinatorOptions {
     std::string stateDirectory;
     double leaseSeconds = 15.0;
@@ -121,13 +127,17 @@ class Coordinator {
     // records the change durably and in the job's event log.
     // Runs a failed or cancelled job again under its id: units in its checkpoint stay merged,
     // the others are queued with their attempts forgotten (same bytes as a fresh job).
-    v1::JobStatus retry(uint64_t jobId);
+    // A nonempty `requestId` (RetryJobRequest.request_id) is recorded with the change: the same
+    // id sent again answers with the first call's answer and changes nothing.
+    v1::JobStatus retry(uint64_t jobId, const std::string& requestId = "");
     // A paused job gets no new leases; its leases out may finish and merge.
     v1::JobStatus setPaused(uint64_t jobId, bool paused);
     v1::JobStatus setPriority(uint64_t jobId, int32_t priority);
     // Deletes the job's record, log, films and bundle and the blobs only it used. A running job
-    // is cancelled first when `cancelRunning`, refused otherwise.
-    v1::DeleteJobResponse deleteJob(uint64_t jobId, bool cancelRunning);
+    // is cancelled first when `cancelRunning`, refused otherwise. A nonempty `requestId`
+    // (DeleteJobRequest.request_id) is recorded with the deletion, as for retry().
+    v1::DeleteJobResponse deleteJob(uint64_t jobId, bool cancelRunning,
+                                    const std::string& requestId = "");
     v1::GetJobLogResponse jobLog(uint64_t jobId, uint64_t afterSequence);
     // A draining worker is given no new unit (it finishes those it holds). Throws UnknownWorker.
     v1::WorkerInfo setWorkerDraining(uint64_t workerId, bool draining);
@@ -165,8 +175,9 @@ class Coordinator {
     v1::ResultDisposition report(const v1::ResultChunk& header, const std::string& compressedFilm);
     // Removes the jobs that ended more than keepFinishedSeconds before `wallNow` (seconds since
     // the epoch), the blobs that no remaining job references and nobody stored or asked for
-    // within that time, and the workers without a lease that have not called within it. tick()
-    // calls it every minute; public for tests.
+    // within that time, and the workers without a lease that have not called within it; and
+    // the retries and deletes recorded more than kControlRequestKeepSeconds before (also with
+    // keepFinishedSeconds 0). tick() calls it every minute; public for tests.
     void pruneFinishedJobs(double wallNow);
 
     // Coordinator memory a running job takes: its whole-image film plus per-unit bookkeeping.
@@ -266,6 +277,15 @@ class Coordinator {
     void saveChangedEventLogs(std::optional<uint64_t> jobId = std::nullopt);
     // The job, refusing with FailedPrecondition unless it is running (for pause and priority).
     Job& runningJobLocked(uint64_t jobId, const char* action, const char* done);
+
+    // Under m_controlMutex (not m_mutex): the recorded request with this id when it is a
+    // `action` ("retry", "delete") of job `jobId`; nullopt for an empty id or one not recorded;
+    // throws InvalidArgument for an id recorded for another action or job.
+    std::optional<ControlRequestRow> earlierControlRequest(const char* action, uint64_t jobId,
+                                                           const std::string& requestId);
+    // Records the first answer of a request recorded with its change; a failure is logged, not
+    // thrown (the change is made: a repeated request then gets an answer made anew).
+    void recordControlAnswer(const std::string& requestId, const std::string& answer);
 
     CoordinatorOptions m_options;
     std::shared_ptr<const Clock> m_clock;

@@ -20,6 +20,7 @@
 
 #include <csignal>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -27,6 +28,7 @@
 #include <fstream>
 #include <functional>
 #include <future>
+#include <optional>
 #include <set>
 
 namespace alphorn::coordinator {
@@ -1362,6 +1364,144 @@ TEST_F(CoordinatorJob, DeleteRemovesTheJobItsFilesAndTheBlobsOnlyItUsed) {
     EXPECT_EQ(coordinator.deleteJob(kept, false).blobs_removed(), 2u);
     EXPECT_THROW(coordinator.deleteJob(kept, false), FarmError);
     coordinator.stop();
+}
+
+// Runs `call` and returns the kind of the FarmError it throws, with its message in `message`.
+template <typename Call>
+std::optional<FarmError::Kind> farmErrorKind(Call call, std::string* message = nullptr) {
+    try {
+        call();
+    } catch (const FarmError& e) {
+        if (message) *message = e.what();
+        return e.kind;
+    }
+    return std::nullopt;
+}
+
+// A client that lost RetryJob's answer (the coordinator restarted after the job ran again)
+// sends the same request again: its request id, recorded with the retry, makes that give the
+// first answer and change nothing, also after a restart, where without it the job (running
+// again) would be refused. An id is one request's: sent with another job or a delete, it is
+// refused.
+TEST_F(CoordinatorJob, ARetrySentAgainGetsTheFirstAnswer) {
+    const std::string id = "0123456789abcdef0123456789abcdef";
+    uint64_t jobId = 0, other = 0;
+    v1::JobStatus first;
+    {
+        Coordinator coordinator(m_options);
+        jobId = coordinator.submit(upload(coordinator)).job_id();
+        other = coordinator.submit(upload(coordinator)).job_id();
+        coordinator.cancel(jobId);
+        coordinator.cancel(other);
+        first = coordinator.retry(jobId, id);
+        EXPECT_EQ(first.state(), v1::JOB_STATE_RUNNING);
+        EXPECT_EQ(coordinator.retry(jobId, id).SerializeAsString(), first.SerializeAsString());
+        const std::string refused = refusal([&] { coordinator.retry(jobId, "another-request"); });
+        EXPECT_NE(refused.find("it is running"), std::string::npos) << refused;
+        std::string message;
+        EXPECT_EQ(farmErrorKind([&] { coordinator.retry(other, id); }, &message),
+                  FarmError::Kind::InvalidArgument);
+        EXPECT_NE(message.find("request id " + id + " was sent with a retry of job"),
+                  std::string::npos)
+            << message;
+        EXPECT_EQ(farmErrorKind([&] { coordinator.deleteJob(jobId, true, id); }),
+                  FarmError::Kind::InvalidArgument);
+        EXPECT_EQ(coordinator.listJobs(other).at(0).state(), v1::JOB_STATE_CANCELLED);
+        EXPECT_EQ(coordinator.listJobs(jobId).at(0).state(), v1::JOB_STATE_RUNNING);
+        coordinator.stop();
+    }
+    Coordinator restarted(m_options);
+    EXPECT_EQ(restarted.retry(jobId, id).SerializeAsString(), first.SerializeAsString());
+    const auto kinds = eventKinds(restarted.jobLog(jobId, 0));
+    EXPECT_EQ(std::count(kinds.begin(), kinds.end(), v1::JOB_EVENT_RETRIED), 1);
+    restarted.stop();
+}
+
+// The same for DeleteJob, whose job is gone when the request comes again: the record outlives
+// the job's row, for a bounded time (kControlRequestKeepSeconds), after which the request is
+// forgotten and the job unknown.
+TEST_F(CoordinatorJob, ADeleteSentAgainGetsTheFirstAnswerUntilItsRecordExpires) {
+    const std::string id = "fedcba9876543210fedcba9876543210";
+    uint64_t jobId = 0;
+    v1::DeleteJobResponse first;
+    {
+        Coordinator coordinator(m_options);
+        jobId = coordinator.submit(upload(coordinator)).job_id();
+        first = coordinator.deleteJob(jobId, true, id);
+        EXPECT_TRUE(first.cancelled());
+        EXPECT_EQ(first.blobs_removed(), 2u);
+        EXPECT_EQ(coordinator.deleteJob(jobId, true, id).SerializeAsString(),
+                  first.SerializeAsString());
+        EXPECT_EQ(farmErrorKind([&] { coordinator.deleteJob(jobId, true); }),
+                  FarmError::Kind::NotFound);
+        coordinator.tick();  // frees the deleted job
+        coordinator.stop();
+    }
+    Coordinator restarted(m_options);
+    EXPECT_EQ(restarted.deleteJob(jobId, true, id).SerializeAsString(), first.SerializeAsString());
+    const double now = SystemClock().wallSeconds();
+    restarted.pruneFinishedJobs(now + kControlRequestKeepSeconds - 3600);
+    EXPECT_EQ(restarted.deleteJob(jobId, true, id).SerializeAsString(), first.SerializeAsString());
+    restarted.pruneFinishedJobs(now + kControlRequestKeepSeconds + 3600);
+    EXPECT_EQ(farmErrorKind([&] { restarted.deleteJob(jobId, true, id); }),
+              FarmError::Kind::NotFound);
+    restarted.stop();
+}
+
+TEST_F(CoordinatorJob, AMalformedRequestIdIsRefused) {
+    Coordinator coordinator(m_options);
+    const uint64_t jobId = coordinator.submit(upload(coordinator)).job_id();
+    coordinator.cancel(jobId);
+    for (const std::string& id : {std::string(65, 'a'), std::string("a b"), std::string("a\nb")}) {
+        std::string message;
+        EXPECT_EQ(farmErrorKind([&] { coordinator.retry(jobId, id); }, &message),
+                  FarmError::Kind::InvalidArgument);
+        EXPECT_NE(message.find("request id"), std::string::npos) << message;
+        EXPECT_EQ(farmErrorKind([&] { coordinator.deleteJob(jobId, false, id); }),
+                  FarmError::Kind::InvalidArgument);
+    }
+    EXPECT_EQ(coordinator.listJobs(jobId).at(0).state(), v1::JOB_STATE_CANCELLED);
+    coordinator.stop();
+}
+
+// Fields of the description this coordinator does not know (a newer client's) are dropped at
+// admission. Kept, they would be serialized after the known fields here, but in field order
+// (JobSettings field 8 between name = 6 and owner = 20) by a coordinator upgraded to know them,
+// which would find the record's digest changed at start and fail the running job as damaged.
+TEST_F(CoordinatorJob, FieldsUnknownToTheCoordinatorAreNotStoredWithTheJob) {
+    uint64_t jobId = 0;
+    {
+        Coordinator coordinator(m_options);
+        v1::SubmitJobRequest request = upload(coordinator);
+        request.mutable_settings()
+            ->GetReflection()
+            ->MutableUnknownFields(request.mutable_settings())
+            ->AddVarint(8, 1);
+        request.mutable_bundle()
+            ->mutable_files(0)
+            ->GetReflection()
+            ->MutableUnknownFields(request.mutable_bundle()->mutable_files(0))
+            ->AddLengthDelimited(9, "newer");
+        jobId = coordinator.submit(request).job_id();
+        coordinator.stop();
+    }
+    {
+        StateDatabase db(m_options.stateDirectory + "/state.sqlite");
+        const auto rows = db.query("SELECT description FROM jobs WHERE id = ?", {int64_t(jobId)});
+        ASSERT_EQ(rows.size(), 1u);
+        v1::JobDescription stored;
+        ASSERT_TRUE(stored.ParseFromString(StateDatabase::text(rows[0][0])));
+        v1::JobDescription known = stored;
+        known.DiscardUnknownFields();
+        EXPECT_EQ(stored.SerializeAsString(), known.SerializeAsString())
+            << "the stored description keeps fields this coordinator does not know";
+    }
+    Coordinator restarted(m_options);
+    const v1::JobStatus status = restarted.listJobs(jobId).at(0);
+    EXPECT_EQ(status.state(), v1::JOB_STATE_RUNNING) << status.error();
+    renderAllUnits(restarted, restarted.registerWorker(thisBuild()));
+    EXPECT_EQ(restarted.snapshot(jobId, false).film.serialize(), localFilm());
+    restarted.stop();
 }
 
 // The event log records the job's life in order and is stored with it.

@@ -6,6 +6,7 @@
 
 #include "common/core/system_memory.h"
 #include "common/farm/convert.h"
+#include "coordinator/admission.h"
 #include "coordinator/checkpoint.h"
 #include "coordinator/log.h"
 #include "coordinator/retention.h"
@@ -100,8 +101,49 @@ v1::JobStatus Coordinator::setPriority(uint64_t jobId, int32_t priority) {
     return status;
 }
 
-v1::JobStatus Coordinator::retry(uint64_t jobId) {
+std::optional<ControlRequestRow> Coordinator::earlierControlRequest(const char* action,
+                                                                    uint64_t jobId,
+                                                                    const std::string& requestId) {
+    if (requestId.empty()) return std::nullopt;
+    std::optional<ControlRequestRow> earlier = m_store.controlRequest(requestId);
+    if (earlier && (earlier->action != action || earlier->jobId != jobId))
+        throw FarmError(Kind::InvalidArgument,
+                        absl::StrFormat("request id %s was sent with a %s of job %u, not a %s of "
+                                        "job %u: each call draws its own id",
+                                        requestId, earlier->action, earlier->jobId, action, jobId));
+    if (earlier)
+        logInfo(absl::StrFormat("job.%s_sent_again", action),
+                {field("job", jobId), field("request", requestId)});
+    return earlier;
+}
+
+void Coordinator::recordControlAnswer(const std::string& requestId, const std::string& answer) {
+    try {
+        m_store.setControlRequestAnswer(requestId, answer);
+    } catch (const StorageError& e) {
+        logWarning("request.answer_unrecorded",
+                   {field("request", requestId), field("error", e.what())});
+    }
+}
+
+// A retry or delete may be sent again by a client that lost the answer (the coordinator
+// restarted after making the change): asked again, the change would be refused (the job runs
+// already, or is gone), although the client's request succeeded. With a request id, the
+// request is recorded in the transaction that stores its change, so that the same id sent
+// again is recognised, under m_controlMutex (a first call still at work finishes first), and
+// answered with the first call's answer.
+v1::JobStatus Coordinator::retry(uint64_t jobId, const std::string& requestId) {
+    checkRequestId(requestId);
     std::lock_guard control(m_controlMutex);
+    if (const std::optional<ControlRequestRow> earlier =
+            earlierControlRequest("retry", jobId, requestId)) {
+        v1::JobControlResponse answer;
+        if (!earlier->answer.empty() && answer.ParseFromString(earlier->answer))
+            return answer.status();
+        // Stopped between the change and recording its answer: the job's status now.
+        std::lock_guard lock(m_mutex);
+        return statusLocked(jobLocked(jobId));
+    }
     Job* job = nullptr;
     uint64_t memory = 0;
     {
@@ -156,10 +198,9 @@ v1::JobStatus Coordinator::retry(uint64_t jobId) {
                         absl::StrFormat("cannot retry job %u now: not enough coordinator memory "
                                         "(--max-memory)",
                                         jobId));
-    // Stored first: should that fail, nothing has changed.
-    m_store.clearUnitAttempts(jobId);
-    m_store.setJobPaused(jobId, false);
-    m_store.setJobState(jobId, v1::JOB_STATE_RUNNING, "", 0);
+    // Stored first, in one transaction with the request: should that fail, nothing has changed.
+    const ControlRequestRow request{requestId, "retry", jobId, "", m_clock->wallSeconds()};
+    m_store.markJobRetried(jobId, requestId.empty() ? nullptr : &request);
     const v1::JobState before = job->state;
     if (checkpoint)
         job->film->restore(std::move(*checkpoint), true);
@@ -188,12 +229,26 @@ v1::JobStatus Coordinator::retry(uint64_t jobId) {
     m_workAvailable.notify_all();
     const v1::JobStatus status = statusLocked(*job);
     lock.unlock();
+    if (!requestId.empty()) {
+        v1::JobControlResponse answer;
+        *answer.mutable_status() = status;
+        recordControlAnswer(requestId, answer.SerializeAsString());
+    }
     saveChangedEventLogs(jobId);
     return status;
 }
 
-v1::DeleteJobResponse Coordinator::deleteJob(uint64_t jobId, bool cancelRunning) {
+v1::DeleteJobResponse Coordinator::deleteJob(uint64_t jobId, bool cancelRunning,
+                                             const std::string& requestId) {
+    checkRequestId(requestId);
     std::lock_guard control(m_controlMutex);
+    if (const std::optional<ControlRequestRow> earlier =
+            earlierControlRequest("delete", jobId, requestId)) {
+        v1::DeleteJobResponse answer;
+        if (earlier->answer.empty() || !answer.ParseFromString(earlier->answer)) answer.Clear();
+        answer.set_job_id(jobId);
+        return answer;
+    }
     v1::DeleteJobResponse response;
     response.set_job_id(jobId);
     std::unique_ptr<Job> deleted;
@@ -219,8 +274,11 @@ v1::DeleteJobResponse Coordinator::deleteJob(uint64_t jobId, bool cancelRunning)
             endJobLocked(job, v1::JOB_STATE_CANCELLED, "cancelled by a client to delete it");
             response.set_cancelled(true);
         }
-        // Should this fail, the job is still there (cancelled), as the store says.
-        m_store.removeJob(jobId);
+        // Should this fail, the job is still there (cancelled), as the store says. The request
+        // is recorded with the removal, its answer as far as it is known: the blobs follow.
+        const ControlRequestRow request{requestId, "delete", jobId, response.SerializeAsString(),
+                                        m_clock->wallSeconds()};
+        m_store.removeJob(jobId, requestId.empty() ? nullptr : &request);
         job.deleted = true;
         job.changes->close();
         for (const v1::BundleFile& file : job.description.bundle().files())
@@ -246,6 +304,7 @@ v1::DeleteJobResponse Coordinator::deleteJob(uint64_t jobId, bool cancelRunning)
         response.set_blobs_removed(response.blobs_removed() + 1);
         m_blobs.remove(sha);
     }
+    if (!requestId.empty()) recordControlAnswer(requestId, response.SerializeAsString());
     logInfo("job.deleted", {field("job", jobId), field("cancelled", response.cancelled()),
                             field("blobs", response.blobs_removed()),
                             field("bytes", response.blob_bytes_removed())});
@@ -284,6 +343,9 @@ v1::WorkerInfo Coordinator::setWorkerDraining(uint64_t workerId, bool draining) 
 }
 
 void Coordinator::pruneFinishedJobs(double wallNow) {
+    if (const uint64_t forgotten =
+            m_store.removeControlRequestsBefore(wallNow - kControlRequestKeepSeconds))
+        logInfo("requests.forgotten", {field("requests", forgotten)});
     const Retention retention(m_options.keepFinishedSeconds);
     if (retention.keepsEverything()) return;
     // Not while retry() holds an ended job outside m_mutex (or deleteJob() works).

@@ -46,6 +46,15 @@ constexpr const char* kSchema[] = {
   log BLOB NOT NULL,           -- serialized alphorn.v1.JobEventLog (bounded, see event_log.h)
   next_sequence INTEGER NOT NULL  -- the log's next_sequence: a newer log is never overwritten
 ))sql",
+    // Retries and deletes sent with a request id, so that the same request sent again gets the
+    // first answer (ControlRequestRow); no foreign key: a delete's record outlives its job.
+    R"sql(CREATE TABLE IF NOT EXISTS control_requests(
+  request_id TEXT PRIMARY KEY,  -- RetryJobRequest/DeleteJobRequest.request_id
+  action TEXT NOT NULL,         -- 'retry' or 'delete'
+  job_id INTEGER NOT NULL,
+  answer BLOB NOT NULL,         -- the first answer, serialized; empty until recorded
+  recorded_at REAL NOT NULL     -- wall clock; forgotten after a bounded time
+))sql",
 };
 
 // Columns added after the first release, with their declarations: databases of earlier
@@ -66,6 +75,16 @@ constexpr AddedColumn kAddedColumns[] = {
 };
 
 using Value = StateDatabase::Value;
+using Write = StateDatabase::Write;
+
+// The write that records a control request with its change.
+Write recordControlRequest(const ControlRequestRow& request) {
+    return {
+        "INSERT INTO control_requests(request_id, action, job_id, answer, recorded_at) "
+        "VALUES(?, ?, ?, ?, ?)",
+        {request.requestId, request.action, int64_t(request.jobId), request.answer,
+         request.recordedAt}};
+}
 
 double real(const Value& value) {
     if (const double* number = std::get_if<double>(&value)) return *number;
@@ -204,10 +223,47 @@ void JobStore::setJobState(uint64_t jobId, v1::JobState state, const std::string
                   int64_t(jobId)});
 }
 
-void JobStore::removeJob(uint64_t jobId) {
-    m_db.execute("DELETE FROM units WHERE job_id = ?", {int64_t(jobId)});
-    m_db.execute("DELETE FROM job_logs WHERE job_id = ?", {int64_t(jobId)});
-    m_db.execute("DELETE FROM jobs WHERE id = ?", {int64_t(jobId)});
+void JobStore::removeJob(uint64_t jobId, const ControlRequestRow* request) {
+    std::vector<Write> writes = {{"DELETE FROM units WHERE job_id = ?", {int64_t(jobId)}},
+                                 {"DELETE FROM job_logs WHERE job_id = ?", {int64_t(jobId)}},
+                                 {"DELETE FROM jobs WHERE id = ?", {int64_t(jobId)}}};
+    if (request) writes.push_back(recordControlRequest(*request));
+    m_db.transaction(writes);
+}
+
+void JobStore::markJobRetried(uint64_t jobId, const ControlRequestRow* request) {
+    std::vector<Write> writes = {
+        {"DELETE FROM units WHERE job_id = ?", {int64_t(jobId)}},
+        {"UPDATE jobs SET paused = 0, state = ?, error = '', finished_at = NULL WHERE id = ?",
+         {int64_t(v1::JOB_STATE_RUNNING), int64_t(jobId)}}};
+    if (request) writes.push_back(recordControlRequest(*request));
+    m_db.transaction(writes);
+}
+
+std::optional<ControlRequestRow> JobStore::controlRequest(const std::string& requestId) {
+    const auto rows = m_db.query(
+        "SELECT action, job_id, answer, recorded_at FROM control_requests WHERE request_id = ?",
+        {requestId});
+    if (rows.empty()) return std::nullopt;
+    ControlRequestRow request;
+    request.requestId = requestId;
+    request.action = StateDatabase::text(rows[0][0]);
+    request.jobId = uint64_t(StateDatabase::integer(rows[0][1]));
+    request.answer = StateDatabase::text(rows[0][2]);
+    request.recordedAt = real(rows[0][3]);
+    return request;
+}
+
+void JobStore::setControlRequestAnswer(const std::string& requestId, const std::string& answer) {
+    m_db.execute("UPDATE control_requests SET answer = ? WHERE request_id = ?",
+                 {answer, requestId});
+}
+
+uint64_t JobStore::removeControlRequestsBefore(double wallSeconds) {
+    return uint64_t(
+        m_db.query("DELETE FROM control_requests WHERE recorded_at < ? RETURNING request_id",
+                   {wallSeconds})
+            .size());
 }
 
 void JobStore::setJobDescription(uint64_t jobId, const v1::JobDescription& description) {

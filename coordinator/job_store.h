@@ -36,6 +36,21 @@ struct JobRow {
     std::string recordSha256;
 };
 
+// A client's retry or delete that carried a request id (RetryJobRequest.request_id,
+// DeleteJobRequest.request_id), recorded in the transaction that makes its change, so that the
+// same request sent again (after a coordinator restart lost the answer) is recognised and gets
+// the first answer instead of being refused for the change it made. Kept for a bounded time
+// (Coordinator::kControlRequestKeepSeconds); a delete's outlives the job's row.
+struct ControlRequestRow {
+    std::string requestId;
+    std::string action;  // "retry" or "delete"
+    uint64_t jobId = 0;
+    // The first call's answer, serialized (a JobControlResponse or a DeleteJobResponse); empty
+    // when the coordinator stopped between the change and recording its answer.
+    std::string answer;
+    double recordedAt = 0;  // wall clock
+};
+
 struct UnitAttemptsRow {
     uint32_t unitIndex = 0;
     uint32_t attempts = 0;  // failed attempts: worker errors and expired leases
@@ -75,8 +90,18 @@ class JobStore {
     // Records that a job ended (or, with JOB_STATE_RUNNING and finishedAt 0, runs again).
     void setJobState(uint64_t jobId, v1::JobState state, const std::string& error,
                      double finishedAt);
-    // Deletes the job, its unit records and its event log.
-    void removeJob(uint64_t jobId);
+    // Deletes the job, its unit records and its event log, all or nothing; records `request`
+    // with them when given.
+    void removeJob(uint64_t jobId, const ControlRequestRow* request = nullptr);
+    // A retried job runs again: forgets its failed attempts, clears its pause and marks it
+    // running, all or nothing; records `request` with them when given.
+    void markJobRetried(uint64_t jobId, const ControlRequestRow* request = nullptr);
+    // The recorded request with this id, if any.
+    std::optional<ControlRequestRow> controlRequest(const std::string& requestId);
+    // Records the first answer of a request recorded with its change.
+    void setControlRequestAnswer(const std::string& requestId, const std::string& answer);
+    // Forgets the requests recorded before `wallSeconds`; returns how many.
+    uint64_t removeControlRequestsBefore(double wallSeconds);
     // Replaces the stored description (a new priority); the id stays the row's.
     void setJobDescription(uint64_t jobId, const v1::JobDescription& description);
     void setJobPaused(uint64_t jobId, bool paused);

@@ -72,6 +72,45 @@ TEST_F(JobStoreTest, JobsRoundTripUnderTheirOwnIds) {
     EXPECT_TRUE(store.unitAttempts(second).empty());
 }
 
+// A retry's or delete's writes and the record of its request are one transaction: a request
+// that cannot be recorded (here its id is taken) leaves the job as it was. Records are kept
+// after the job's row and forgotten by their time.
+TEST_F(JobStoreTest, AControlRequestIsRecordedWithItsChangeOrNeither) {
+    JobStore store(path());
+    const uint64_t job = store.addJob(v1::JobDescription(), 8, 6, 0, 1000);
+    store.setJobState(job, v1::JOB_STATE_FAILED, "it broke", 2000);
+    store.setJobPaused(job, true);
+    store.setUnitAttempts(job, 1, 3, "out of memory");
+    const ControlRequestRow retry{"r1", "retry", job, "", 3000};
+    store.markJobRetried(job, &retry);
+    ASSERT_EQ(store.jobs().size(), 1u);
+    EXPECT_EQ(store.jobs()[0].state, v1::JOB_STATE_RUNNING);
+    EXPECT_EQ(store.jobs()[0].error, "");
+    EXPECT_EQ(store.jobs()[0].finishedAt, 0);
+    EXPECT_FALSE(store.jobs()[0].paused);
+    EXPECT_TRUE(store.unitAttempts(job).empty());
+    store.setControlRequestAnswer("r1", "the first answer");
+    ASSERT_TRUE(store.controlRequest("r1"));
+    EXPECT_EQ(store.controlRequest("r1")->action, "retry");
+    EXPECT_EQ(store.controlRequest("r1")->answer, "the first answer");
+
+    store.setUnitAttempts(job, 2, 1, "lease expired");
+    const ControlRequestRow taken{"r1", "delete", job, "", 3001};
+    EXPECT_THROW(store.removeJob(job, &taken), StorageError);
+    EXPECT_EQ(store.jobs().size(), 1u) << "the job was removed without its request";
+    EXPECT_EQ(store.unitAttempts(job).size(), 1u);
+    EXPECT_EQ(store.controlRequest("r1")->action, "retry");
+
+    const ControlRequestRow deletion{"d1", "delete", job, "", 3002};
+    store.removeJob(job, &deletion);
+    EXPECT_TRUE(store.jobs().empty());
+    ASSERT_TRUE(store.controlRequest("d1"));
+    EXPECT_EQ(store.controlRequest("d1")->jobId, job);
+    EXPECT_EQ(store.removeControlRequestsBefore(3001), 1u);
+    EXPECT_FALSE(store.controlRequest("r1"));
+    EXPECT_TRUE(store.controlRequest("d1"));
+}
+
 // Descriptions stored before their id was known (id 0) come back with the row's id: workers
 // cache scenes by it, so a resumed job must not turn into "job 0".
 TEST_F(JobStoreTest, ADescriptionStoredWithoutItsIdGetsTheRowsId) {

@@ -372,7 +372,7 @@ grpc::Status ClientServiceImpl::RetryJob(grpc::ServerContext* context,
                                          const v1::RetryJobRequest* request,
                                          v1::JobControlResponse* response) {
     return guarded(context, m_token, "RetryJob", [&] {
-        *response->mutable_status() = m_coordinator.retry(request->job_id());
+        *response->mutable_status() = m_coordinator.retry(request->job_id(), request->request_id());
         return grpc::Status::OK;
     });
 }
@@ -400,7 +400,8 @@ grpc::Status ClientServiceImpl::DeleteJob(grpc::ServerContext* context,
                                           const v1::DeleteJobRequest* request,
                                           v1::DeleteJobResponse* response) {
     return guarded(context, m_token, "DeleteJob", [&] {
-        *response = m_coordinator.deleteJob(request->job_id(), request->cancel_running());
+        *response = m_coordinator.deleteJob(request->job_id(), request->cancel_running(),
+                                            request->request_id());
         return grpc::Status::OK;
     });
 }

@@ -44,6 +44,26 @@ StateDatabase::~StateDatabase() {
 std::vector<StateDatabase::Row> StateDatabase::query(const std::string& sql,
                                                      const std::vector<Value>& parameters) {
     std::lock_guard lock(m_mutex);
+    return queryLocked(sql, parameters);
+}
+
+void StateDatabase::transaction(const std::vector<Write>& writes) {
+    // Under the one lock: the connection is shared between threads, and a statement of another
+    // thread must not land inside this transaction.
+    std::lock_guard lock(m_mutex);
+    queryLocked("BEGIN IMMEDIATE", {});
+    try {
+        for (const Write& write : writes) queryLocked(write.sql, write.parameters);
+        queryLocked("COMMIT", {});
+    } catch (const StorageError&) {
+        // Also after a failed COMMIT, which may leave the transaction open.
+        sqlite3_exec(m_db, "ROLLBACK", nullptr, nullptr, nullptr);
+        throw;
+    }
+}
+
+std::vector<StateDatabase::Row> StateDatabase::queryLocked(const std::string& sql,
+                                                           const std::vector<Value>& parameters) {
     Statement statement;
     if (sqlite3_prepare_v2(m_db, sql.c_str(), -1, &statement.handle, nullptr) != SQLITE_OK)
         throw StorageError(sqlError("SQL error", sql));

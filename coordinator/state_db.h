@@ -37,6 +37,14 @@ class StateDatabase {
     void execute(const std::string& sql, const std::vector<Value>& parameters = {});
     // Runs a query and returns all rows.
     std::vector<Row> query(const std::string& sql, const std::vector<Value>& parameters = {});
+    // One statement of a transaction().
+    struct Write {
+        std::string sql;
+        std::vector<Value> parameters;
+    };
+    // Runs the statements in one transaction: a crash, a full disk or any failing statement
+    // leaves none of them done. Throws StorageError, having rolled back.
+    void transaction(const std::vector<Write>& writes);
     int64_t lastInsertId();
 
     static int64_t integer(const Value& value);
@@ -46,6 +54,8 @@ class StateDatabase {
     // "PATH: SQL error in "STATEMENT...": SQLite's message", the statement shortened to its
     // first line.
     std::string sqlError(const char* what, const std::string& sql) const;
+    // query() with m_mutex held.
+    std::vector<Row> queryLocked(const std::string& sql, const std::vector<Value>& parameters);
 
     std::string m_path;
     sqlite3* m_db = nullptr;

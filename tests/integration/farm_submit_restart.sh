@@ -3,6 +3,8 @@
 # (SIGTERM) or killed (kill -9) before its answer reaches the client. The client waits for the
 # coordinator, sends the same submission again, gets the job the first call created (its
 # submission id), and renders it: exactly one job per submit, byte-identical to `alphorn render`.
+# Then the other client commands, each killed mid-call, ask again and succeed; `retry` and
+# `delete` with their request id, so that each acts once.
 source "$(dirname "$0")/farm_lib.sh"
 
 render_local "$SCENES/farm_normals.xml" "$WORK/local.exr" --seed 4 --passes 4
@@ -97,4 +99,38 @@ cmp "$WORK/local.exr" "$WORK/fetched.exr" || fail "the EXR fetched across a rest
 grep -q "submitted" "$WORK/logs.out" || fail "logs printed no events: $(cat "$WORK/logs.out")"
 (($(job_count) == 3)) || fail "$(job_count) jobs after the submit past its time limit, expected 3"
 pass "status, cancel (asked again after it cancelled), fetch, workers and logs across a coordinator restart"
+
+# retry and delete, each in flight when the coordinator is killed, their change stored and their
+# answer held back: they wait for it and ask again with the same request id, which the
+# coordinator stored with the change, so the call asked again gets the first answer rather than
+# "cannot retry job N: it is running" or "no job N". Each acts once.
+kill -TERM "$COORDINATOR_PID"
+wait "$COORDINATOR_PID" || true
+ALPHORN_TEST_ANSWER_DELAY_MS=60000 ALPHORN_TEST_ANSWER_DELAY_RPCS=RetryJob,DeleteJob \
+    start_coordinator "127.0.0.1:$PORT"
+held_before=$(grep -c "event=test_hook.answer_delay" "$WORK/coordinator.log" || true)
+in_flight retry retry "$slow_job"
+in_flight delete delete 2
+both_held() { (($(grep -c "event=test_hook.answer_delay" "$WORK/coordinator.log" || true) >= held_before + 2)); }
+wait_until 60 both_held
+kill -9 "$COORDINATOR_PID"
+wait "$COORDINATOR_PID" || true
+start_coordinator "127.0.0.1:$PORT"
+for name in retry delete; do
+    pid_var="${name}_pid"
+    wait "${!pid_var}" || fail "alphorn $name across a coordinator restart failed: $(cat "$WORK/$name.err")"
+    grep -q ": the coordinator went away .*waiting for it" "$WORK/$name.err" ||
+        fail "alphorn $name did not say that it waits for the coordinator: $(cat "$WORK/$name.err")"
+    grep -q ": reconnected to the coordinator" "$WORK/$name.err" ||
+        fail "alphorn $name did not say that the coordinator was back: $(cat "$WORK/$name.err")"
+    grep -q "event=job.${name}_sent_again" "$WORK/coordinator.log" ||
+        fail "the coordinator did not recognise the $name asked again"
+done
+grep -q "job $slow_job runs again" "$WORK/retry.err" || fail "retry did not say that the job runs again: $(cat "$WORK/retry.err")"
+[[ $(job_field "$slow_job" state) == JOB_STATE_RUNNING ]] || fail "job $slow_job does not run again"
+(($(grep -c "retried" < <("$ALPHORN" logs "$slow_job")) == 1)) || fail "job $slow_job was not retried exactly once"
+grep -q "^deleted job 2;" "$WORK/delete.out" || fail "delete did not say that it deleted job 2: $(cat "$WORK/delete.out")"
+! "$ALPHORN" status 2 >/dev/null 2>&1 || fail "job 2 is still listed after its delete"
+(($(job_count) == 2)) || fail "$(job_count) jobs after the delete, expected 2"
+pass "retry and delete killed mid-call: asked again with their request id, answered as the first time, each acted once"
 echo "PASS"

@@ -13,6 +13,10 @@ enforces:
   <!-- ops-test: skip (REASON) --> with a REASON of SKIP_REASONS. Any other ops-test marker fails.
 - A line made only of assignments to the guide's variables (PREFIX_VARIABLES) runs with this
   test's values: the host is `localhost`, the directories are under a temporary directory.
+- The guide's port (GUIDE_PORTS) is replaced by a free one in the commands run, so that copies of
+  this test (two checkouts testing at once) do not collide: `--listen HOST:7700` becomes
+  `--listen HOST:0 --port-file FILE` (the coordinator picks a free port and records it; the test
+  waits for the file), and every other `:7700` names the port it picked.
 - A command that runs until stopped (the daemons, `alphorn cluster` without --render) runs in the
   background, as in a second terminal. If one exits before the end, the test fails at once; at the
   end each gets SIGTERM, which the guide says stops it with exit code 0, and must do so.
@@ -28,7 +32,6 @@ import re
 import shlex
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -44,8 +47,11 @@ SKIP_REASONS = {
 SHELL_LANGUAGES = {"sh", "bash", "shell"}
 OTHER_LANGUAGES = {"text", "ini", "yaml", "json", "toml"}
 PREFIX_VARIABLES = ("FARM", "CONF", "STATE", "CACHE", "BACKUP")
-# The ports the guide's daemons listen on; a busy one would fail the test for the wrong reason.
+# The ports the guide's daemons listen on, replaced by free ones in the commands run
+# (move_guide_ports): a fixed port would fail two copies of the test run at once.
 GUIDE_PORTS = (7700,)
+# How long the test waits for a coordinator started on a free port to record it.
+PORT_FILE_WAIT_SECONDS = 15
 TIME_LIMIT_SECONDS = 120
 STOP_LIMIT_SECONDS = 30
 
@@ -134,9 +140,28 @@ def runs_until_stopped(text):
     return words[:2] == ["alphorn", "cluster"] and "--render" not in text
 
 
+def port_file(port):
+    return f'"$WORK/port-{port}"'
+
+
+def move_guide_ports(text):
+    """Returns (the command with the guide's ports replaced by free ones, the guide ports it
+    listens on). A `--listen HOST:PORT` becomes `--listen HOST:0 --port-file FILE`; any other
+    `:PORT` becomes `:$GUIDE_PORT_PORT`, which the script sets from that file once the daemon
+    listening on it has written it."""
+    listened = []
+    for port in GUIDE_PORTS:
+        text, count = re.subn(rf"(--listen[ =]\S*?):{port}\b",
+                              rf"\1:0 --port-file {port_file(port)}", text)
+        if count:
+            listened.append(port)
+        text = re.sub(rf":{port}\b", f":$GUIDE_PORT_{port}", text)
+    return text, listened
+
+
 def build_script(doc_path, blocks, values):
     shown_doc = shlex.quote(doc_path)
-    out = ["set -euo pipefail", "DAEMONS=()",
+    out = ["set -euo pipefail", "DAEMONS=()", f"DOC_NAME={shown_doc}",
            f'trap \'echo "FAIL: "{shown_doc}":$DOC_LINE: exit status $?" >&2\' ERR']
     for name in PREFIX_VARIABLES:
         out.append(f"{name}={shlex.quote(values[name])}")
@@ -158,6 +183,9 @@ def build_script(doc_path, blocks, values):
                 shown = " ".join(f"{name}={values[name]}" for name in names)
                 out.append(f"echo {shlex.quote(f'line {number}: the guide sets its variables; this test: {shown}')}")
                 continue
+            text, listened = move_guide_ports(text)
+            for port in listened:
+                out.append(f"rm -f {port_file(port)}")  # a daemon started again records anew
             out.append(f"echo {shlex.quote(f'+ line {number}: {text}')}")
             if runs_until_stopped(text):
                 log = f"$WORK/daemon-line{number}.log"
@@ -166,6 +194,15 @@ def build_script(doc_path, blocks, values):
                 out.append(f'DAEMONS+=($!); echo "$! {number} {log}" >>"$WORK/daemons"')
             else:
                 out.append(text)
+            for port in listened:
+                # The guide's next commands connect to it: wait until it listens.
+                out.append(f"for _ in $(seq {PORT_FILE_WAIT_SECONDS * 20}); do "
+                           f"[[ -s {port_file(port)} ]] && break; sleep 0.05; done")
+                out.append(f"[[ -s {port_file(port)} ]] || {{ echo \"FAIL: $DOC_NAME:{number}: "
+                           f"no port recorded within {PORT_FILE_WAIT_SECONDS} s\" >&2; exit 1; }}")
+                out.append(f"GUIDE_PORT_{port}=$(cat {port_file(port)})")
+                out.append(f"echo 'line {number}: the guide port {port} is '\"$GUIDE_PORT_{port}\""
+                           "' in this test'")
     out.append("DOC_LINE=end")
     # Stop the daemons last started first (workers before their coordinator), as the guide says:
     # SIGTERM, exit code 0.
@@ -226,13 +263,6 @@ def main():
         fail("usage: operations_doc_test.py DOC SOURCE_DIR BIN_DIR...")
     doc_path, source_dir, bin_dirs = sys.argv[1], sys.argv[2], sys.argv[3:]
     blocks = extract_blocks(doc_path)
-    for port in GUIDE_PORTS:
-        with socket.socket() as probe:
-            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-            try:
-                probe.bind(("0.0.0.0", port))
-            except OSError as e:
-                fail(f"port {port}, which the guide's coordinator listens on, is in use: {e}")
 
     work = tempfile.mkdtemp(prefix="alphorn-ops-test-")
     checkout = os.path.join(work, "checkout")

@@ -61,11 +61,20 @@ const std::map<std::string, Tag> kPropertyTags = {
     {"lookat", Tag::LookAt},
 };
 
+// Whether the parser builds the scene's objects or only lists the files they would read.
+enum class ParseMode { Build, ListFiles };
+
 class Parser {
   public:
     Parser(const std::string& path, const FileReferencePolicy& policy,
-           const SceneOverrides& overrides, const SceneLimits& limits)
-        : m_path(path), m_name(path), m_policy(policy), m_overrides(overrides), m_limits(limits) {
+           const SceneOverrides& overrides, const SceneLimits& limits, SceneUse use, ParseMode mode)
+        : m_path(path),
+          m_name(path),
+          m_policy(policy),
+          m_overrides(overrides),
+          m_limits(limits),
+          m_mode(mode) {
+        m_loadContext->setBuildsAcceleration(use == SceneUse::Render);
         namespace fs = std::filesystem;
         if (!m_policy.confinementRoot.empty()) {
             fs::path root = fs::absolute(m_policy.confinementRoot).lexically_normal();
@@ -128,7 +137,7 @@ class Parser {
         if (!kObjectTags.count(root.name()))
             fail("%s: the root element must be <scene> or <test>, found <%s>",
                  location(root.offset_debug()), root.name());
-        checkGeometry(doc);
+        if (m_mode == ParseMode::Build) checkGeometry(doc);
         ParseResult out;
         out.root = parseObject(root);
         for (const auto& [parameter, value] : m_overrides.parameters)
@@ -507,6 +516,10 @@ class Parser {
             props.setInteger("width", m_overrides.imageSize->x());
             props.setInteger("height", m_overrides.imageSize->y());
         }
+        if (m_mode == ParseMode::ListFiles) {
+            ObjectFactory::listFiles(kind, type, props);
+            return nullptr;
+        }
         std::shared_ptr<Object> object = ObjectFactory::create(kind, type, props);
         if (object->kind() != kind) failAt(node, "type \"%s\" is not a %s", type, node.name());
         object->setDefinition(definitionOf(node, true));
@@ -627,6 +640,7 @@ class Parser {
     FileReferencePolicy m_policy;
     SceneOverrides m_overrides;
     SceneLimits m_limits;
+    ParseMode m_mode;
     std::shared_ptr<SceneLoadContext> m_loadContext = std::make_shared<SceneLoadContext>();
     mutable std::set<std::string> m_usedParameters;  // the -D names some $name referred to
     std::string m_text;
@@ -638,13 +652,20 @@ class Parser {
 }  // namespace
 
 ParseResult parseSceneFile(const std::string& path, const FileReferencePolicy& policy,
-                           const SceneOverrides& overrides, const SceneLimits& limits) {
-    return Parser(path, policy, overrides, limits).parse();
+                           const SceneOverrides& overrides, const SceneLimits& limits,
+                           SceneUse use) {
+    return Parser(path, policy, overrides, limits, use, ParseMode::Build).parse();
+}
+
+std::vector<std::string> listSceneFiles(const std::string& path,
+                                        const FileReferencePolicy& policy) {
+    return Parser(path, policy, {}, {}, SceneUse::Check, ParseMode::ListFiles).parse().dependencies;
 }
 
 std::shared_ptr<Scene> loadScene(const std::string& path, const FileReferencePolicy& policy,
-                                 const SceneOverrides& overrides, const SceneLimits& limits) {
-    Parser parser(path, policy, overrides, limits);
+                                 const SceneOverrides& overrides, const SceneLimits& limits,
+                                 SceneUse use) {
+    Parser parser(path, policy, overrides, limits, use, ParseMode::Build);
     ParseResult result = parser.parse();
     if (result.root->kind() != ObjectKind::Scene)
         fail("%s: expected a <scene> root element, found <%s>", parser.name(),

@@ -103,7 +103,9 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
                                         limits.maxBundleBytes));
 
     // Materialize and load the scene now, so a broken scene fails at submit with the loader's
-    // "file:line: problem", with paths as the client knows them (relative to the bundle).
+    // "file:line: problem", with paths as the client knows them (relative to the bundle). Every
+    // file is read and checked as the workers will, but no BVH is built: what the job needs
+    // from the scene (image size, sampler, filter, radius schedule) does not depend on it.
     AdmittedJob admitted;
     admitted.stagingDirectory =
         (fs::path(stagingParent) / farm::generateToken().substr(0, 16)).string();
@@ -114,7 +116,7 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
         const std::string scenePath = farm::materializeBundle(
             bundle, bundleDirectory, [&](const std::string& sha) { return blobs.pathOf(sha); });
         scene = farm::loadJobScene(bundleDirectory, scenePath, settings.integrator_override(),
-                                   {limits.maxGeometryBytes, "--max-memory"});
+                                   {limits.maxGeometryBytes, "--max-memory"}, SceneUse::Check);
     } catch (const Error& e) {
         fs::remove_all(admitted.stagingDirectory);
         const bool tooLarge = dynamic_cast<const ResourceLimitError*>(&e) != nullptr;

@@ -6,6 +6,9 @@
 #include "common/farm/bundle.h"
 #include "common/farm/convert.h"
 #include "common/farm/files.h"
+#include "common/scene/accel.h"
+#include "common/scene/parser.h"
+#include "common/scene/scene.h"
 #include "coordinator/farm_error.h"
 #include "tests/support/source_tree.h"
 
@@ -181,6 +184,63 @@ TEST_F(AdmissionTest, ATargetErrorNeedsACapAndChunksEndingAtDecisionPoints) {
         EXPECT_EQ(job.description.settings().passes_per_unit(), expected) << requested;
         EXPECT_EQ(job.description.settings().passes(), 1000u);
     }
+}
+
+// The scene is loaded at submit to check it and to learn what the job needs, but without
+// Embree's BVH (building it was most of a large scene's submit): the default radius of a
+// progressive photon mapper (1/500 of the scene's diagonal) is still the one a full load derives.
+TEST_F(AdmissionTest, CheckingTheSceneBuildsNoBvhAndGivesTheRadiusOfAFullLoad) {
+    std::ofstream(m_dir / "scene/room.xml") << R"(<scene>
+  <integrator type="photonmapper"><boolean name="progressive" value="true"/>
+    <integer name="photonCount" value="100"/></integrator>
+  <camera type="perspective"><integer name="width" value="20"/><integer name="height" value="10"/></camera>
+  <emitter type="point"><point name="position" value="0, 2, 0"/><color name="power" value="1"/></emitter>
+  <mesh type="obj"><string name="filename" value="triangle.obj"/>
+    <transform name="toWorld"><scale value="3, 5, 1"/></transform></mesh>
+</scene>)";
+    const uint64_t built = embreeScenesBuilt();
+    const AdmittedJob job = admit(request());
+    EXPECT_EQ(embreeScenesBuilt(), built) << "admission built a BVH";
+    ASSERT_TRUE(job.description.has_photon_radius_schedule());
+    const auto full = loadScene((m_dir / "scene/room.xml").string());
+    EXPECT_EQ(job.description.photon_radius_schedule().initial_radius(),
+              full->integrator()->radiusSchedule()->initialRadius);
+}
+
+// The client only lists the files; admission still reads every one as the workers will, so a
+// corrupt image or OBJ file is refused at submit with file:line. A count beyond memory is
+// RESOURCE_EXHAUSTED, as the mesh memory is.
+TEST_F(AdmissionTest, BrokenFilesAndCountsBeyondMemoryAreRefusedAtSubmit) {
+    const auto refusal = [&](const std::string& body) -> std::pair<FarmError::Kind, std::string> {
+        std::ofstream(m_dir / "scene/room.xml") << "<scene>\n<camera type=\"perspective\"/>\n"
+                                                << body << "\n</scene>\n";
+        try {
+            admit(request());
+        } catch (const FarmError& e) {
+            return {e.kind, e.what()};
+        }
+        ADD_FAILURE() << "admitted: " << body;
+        return {};
+    };
+    std::ofstream(m_dir / "scene/bad.obj") << "v 0 0 0\nf 1 2 3\n";
+    std::ofstream(m_dir / "scene/bad.png") << "not a PNG";
+    const auto [objKind, objMessage] = refusal(
+        R"(<integrator type="normals"/><mesh type="obj"><string name="filename" value="bad.obj"/></mesh>)");
+    EXPECT_EQ(objKind, FarmError::Kind::InvalidArgument);
+    EXPECT_NE(objMessage.find("room.xml:3:"), std::string::npos) << objMessage;
+    EXPECT_NE(objMessage.find("out-of-range index"), std::string::npos) << objMessage;
+    const auto [pngKind, pngMessage] = refusal(
+        R"(<integrator type="normals"/><mesh type="obj"><string name="filename" value="triangle.obj"/><bsdf type="diffuse"><texture type="bitmap" name="albedo"><string name="filename" value="bad.png"/></texture></bsdf></mesh>)");
+    EXPECT_EQ(pngKind, FarmError::Kind::InvalidArgument);
+    EXPECT_NE(pngMessage.find("room.xml:3:"), std::string::npos) << pngMessage;
+    EXPECT_NE(pngMessage.find("cannot read PNG"), std::string::npos) << pngMessage;
+    // At least one 152-byte vertex for each of 2^31 - 1 light paths: 304 GiB.
+    const auto [countKind, countMessage] = refusal(
+        R"(<integrator type="vcm"><integer name="lightPathCount" value="2147483647"/></integrator>)");
+    EXPECT_EQ(countKind, FarmError::Kind::ResourceExhausted) << countMessage;
+    EXPECT_NE(countMessage.find("room.xml:3:"), std::string::npos) << countMessage;
+    EXPECT_NE(countMessage.find("memory"), std::string::npos) << countMessage;
+    EXPECT_TRUE(stagingEmpty());
 }
 
 }  // namespace

@@ -77,8 +77,9 @@ void writeEXR(const std::string& path, const Image& image) {
 void checkDeclaredImageSize(const std::string& path, uint64_t width, uint64_t height,
                             uint64_t rawBytes, uint64_t fileBytes) {
     if (width * height > kMaxImageFilePixels)
-        fail("%s: the image is %ux%u pixels, more than the %u (16384 x 16384) allowed", path, width,
-             height, kMaxImageFilePixels);
+        throw ResourceLimitError(absl::StrFormat(
+            "%s: the image is %ux%u pixels, more than the %u (16384 x 16384) allowed", path, width,
+            height, kMaxImageFilePixels));
     if (rawBytes > 1100 * fileBytes)
         fail(
             "%s: the header declares a %ux%u image (%u bytes of pixels) in a file of %u bytes, "

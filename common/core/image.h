@@ -30,11 +30,11 @@ struct Image {
 
 // The most pixels an image file may declare (16384 x 16384; read as float RGB: 3 GiB).
 inline constexpr uint64_t kMaxImageFilePixels = uint64_t(1) << 28;
-// Refuses, naming the path, an image file whose header declares more than kMaxImageFilePixels or
-// more raw bytes (`rawBytes`, in the file's own pixel format) than `fileBytes` of compressed data
-// can hold (deflate, the densest compression either format uses, stays under 1032:1): a small
-// file that claims a huge image is truncated or crafted, and is refused before memory is
-// allocated for it.
+// Refuses, naming the path, an image file whose header declares more than kMaxImageFilePixels
+// (a ResourceLimitError: the image is too large, not broken) or more raw bytes (`rawBytes`, in the
+// file's own pixel format) than `fileBytes` of compressed data can hold (deflate, the densest
+// compression either format uses, stays under 1032:1): a small file that claims a huge image is
+// truncated or crafted, and is refused before memory is allocated for it.
 void checkDeclaredImageSize(const std::string& path, uint64_t width, uint64_t height,
                             uint64_t rawBytes, uint64_t fileBytes);
 

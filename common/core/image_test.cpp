@@ -1,6 +1,7 @@
 #include "common/core/image.h"
 
 #include "common/core/error.h"
+#include "common/scene/parser.h"
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -142,7 +143,23 @@ TEST(ImageFiles, ASmallFileClaimingAHugeImageIsRefused) {
         } catch (const Error& e) {
             const std::string message = e.what();
             EXPECT_NE(message.find("bomb.png: " + expected), std::string::npos) << message;
+            // Only the pixel limit is a limit; the other is a broken file.
+            EXPECT_EQ(dynamic_cast<const ResourceLimitError*>(&e) != nullptr, size == 60000)
+                << message;
         }
+    }
+    // A bitmap texture naming the image beyond the pixel limit is refused the same way, at its
+    // element (the farm answers RESOURCE_EXHAUSTED).
+    std::ofstream(directory / "scene.xml") << R"(<scene>
+<integrator type="normals"/><camera type="perspective"/>
+<mesh type="obj"><string name="filename" value="none.obj"/><bsdf type="diffuse">
+<texture type="bitmap" name="albedo"><string name="filename" value="bomb.png"/></texture>
+</bsdf></mesh></scene>)";
+    try {
+        parseSceneFile((directory / "scene.xml").string());
+        ADD_FAILURE() << "a texture beyond the pixel limit was loaded";
+    } catch (const ResourceLimitError& e) {
+        EXPECT_NE(std::string(e.what()).find("scene.xml:4:"), std::string::npos) << e.what();
     }
     fs::remove_all(directory);
 }

@@ -47,6 +47,11 @@ Registry& registry() {
     static Registry r;
     return r;
 }
+using ListerRegistry = std::map<std::pair<ObjectKind, std::string>, ObjectFactory::FileLister>;
+ListerRegistry& listerRegistry() {
+    static ListerRegistry r;
+    return r;
+}
 std::mutex& registryMutex() {
     static std::mutex m;
     return m;
@@ -72,6 +77,32 @@ std::vector<std::string> ObjectFactory::typesOf(ObjectKind kind) {
     return types;
 }
 
+bool ObjectFactory::registerFileLister(ObjectKind kind, const std::string& type,
+                                       FileLister lister) {
+    std::lock_guard lock(registryMutex());
+    listerRegistry()[{kind, type}] = std::move(lister);
+    return true;
+}
+
+namespace {
+[[noreturn]] void failUnknownType(ObjectKind kind, const std::string& type,
+                                  const PropertyList& props) {
+    props.fail("unknown %s type \"%s\" (known: %s)", kindTag(kind), type,
+               absl::StrJoin(ObjectFactory::typesOf(kind), ", "));
+}
+}  // namespace
+
+void ObjectFactory::listFiles(ObjectKind kind, const std::string& type, const PropertyList& props) {
+    if (!has(kind, type)) failUnknownType(kind, type, props);
+    FileLister lister;
+    {
+        std::lock_guard lock(registryMutex());
+        auto it = listerRegistry().find({kind, type});
+        if (it != listerRegistry().end()) lister = it->second;
+    }
+    if (lister) lister(props);
+}
+
 std::shared_ptr<Object> ObjectFactory::create(ObjectKind kind, const std::string& type,
                                               const PropertyList& props) {
     Constructor ctor;
@@ -80,9 +111,7 @@ std::shared_ptr<Object> ObjectFactory::create(ObjectKind kind, const std::string
         auto it = registry().find({kind, type});
         if (it != registry().end()) ctor = it->second;
     }
-    if (!ctor)
-        props.fail("unknown %s type \"%s\" (known: %s)", kindTag(kind), type,
-                   absl::StrJoin(typesOf(kind), ", "));
+    if (!ctor) failUnknownType(kind, type, props);
     std::shared_ptr<Object> object = ctor(props);
     object->setSource(props.source());
     return object;

@@ -53,6 +53,12 @@ class Object : public std::enable_shared_from_this<Object> {
     [[noreturn]] void fail(const absl::FormatSpec<Args...>& format, const Args&... args) const {
         throw Error(m_source + ": " + absl::StrFormat(format, args...));
     }
+    // The same for what asks for more memory or size than allowed (PropertyList::failBeyondLimit).
+    template <typename... Args>
+    [[noreturn]] void failBeyondLimit(const absl::FormatSpec<Args...>& format,
+                                      const Args&... args) const {
+        throw ResourceLimitError(m_source + ": " + absl::StrFormat(format, args...));
+    }
 
   private:
     std::string m_source = "<unknown>";
@@ -69,6 +75,15 @@ class ObjectFactory {
     static std::shared_ptr<Object> create(ObjectKind kind, const std::string& type,
                                           const PropertyList& props);
     static std::vector<std::string> typesOf(ObjectKind kind);
+
+    // Plugins that read files register a lister with ALPHORN_REGISTER_FILES, so that a scene's
+    // files can be listed without building it (listSceneFiles): given the plugin's properties,
+    // it resolves every file the plugin would read (PropertyList::resolvePath, which records it)
+    // and refuses one that cannot be read, with the plugin's own message.
+    using FileLister = std::function<void(const PropertyList&)>;
+    static bool registerFileLister(ObjectKind kind, const std::string& type, FileLister lister);
+    // Runs the type's lister, if it has one; throws what create() throws for an unknown type.
+    static void listFiles(ObjectKind kind, const std::string& type, const PropertyList& props);
 };
 
 #define ALPHORN_REGISTER(Kind, TypeName, Class)                                          \
@@ -77,5 +92,9 @@ class ObjectFactory {
         [](const ::alphorn::PropertyList& props) -> std::shared_ptr<::alphorn::Object> { \
             return std::make_shared<Class>(props);                                       \
         })
+
+#define ALPHORN_REGISTER_FILES(Kind, TypeName, Function)                                    \
+    static const bool Function##_registered = ::alphorn::ObjectFactory::registerFileLister( \
+        ::alphorn::ObjectKind::Kind, TypeName, Function)
 
 }  // namespace alphorn

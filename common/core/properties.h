@@ -105,6 +105,13 @@ class PropertyList {
     [[noreturn]] void fail(const absl::FormatSpec<Args...>& format, const Args&... args) const {
         throw Error(m_source + ": " + absl::StrFormat(format, args...));
     }
+    // The same for a value that is well formed but asks for more memory or size than allowed
+    // (the farm answers it with RESOURCE_EXHAUSTED, not INVALID_ARGUMENT).
+    template <typename... Args>
+    [[noreturn]] void failBeyondLimit(const absl::FormatSpec<Args...>& format,
+                                      const Args&... args) const {
+        throw ResourceLimitError(m_source + ": " + absl::StrFormat(format, args...));
+    }
 
   private:
     using Value = std::variant<bool, int, float, std::string, Color3f, Point3f, Transform>;

@@ -58,12 +58,14 @@ Bundle gatherBundle(const std::string& scenePath) {
     // an absolute path could not be found there: refuse it now rather than after the upload.
     FileReferencePolicy policy;
     policy.relativeOnly = true;
-    ParseResult parsed = parseSceneFile(scenePath, policy);
+    // Listed, not loaded: building a scene of many meshes takes long, and the coordinator loads
+    // it anyway at submit to check what only loading finds.
+    const std::vector<std::string> dependencies = listSceneFiles(scenePath, policy);
     // Paths by name, as the loader opened them (not through symbolic links): the farm finds a
     // file where the scene's relative path leads inside the bundle, so the bundle must hold it
     // there even when the client reached it through a link.
     std::vector<fs::path> files{fs::absolute(scenePath).lexically_normal()};
-    for (const std::string& dependency : parsed.dependencies)
+    for (const std::string& dependency : dependencies)
         files.push_back(fs::absolute(dependency).lexically_normal());
 
     // The root: the longest common directory prefix of all files.

@@ -29,7 +29,10 @@ void validateBundlePath(const std::string& path);
 // Throws Error on a bad path or hash, a duplicate path, or a scene path not in the bundle.
 void validateBundle(const Bundle& bundle);
 
-// Parses the scene (throwing the loader's error) and hashes it and every file it references.
+// Lists the files the scene names without building it (listSceneFiles: the parser's file:line
+// errors, and a file that cannot be opened refused naming its element; what only loading the
+// scene finds is left to the coordinator, which loads it at submit) and hashes the scene and
+// every file it references.
 // The bundle root is the deepest directory containing all of them, so paths never need "..":
 // a scene may reach "../meshes". Refuses a scene that names a file by an absolute path, which
 // the farm would refuse (it resolves files only inside the bundle). Files are placed by the

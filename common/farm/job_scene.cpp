@@ -24,10 +24,10 @@ std::shared_ptr<Scene> withIntegrator(std::shared_ptr<Scene> scene,
 std::shared_ptr<Scene> loadJobScene(const std::string& bundleDirectory,
                                     const std::string& scenePath,
                                     const std::string& integratorOverride,
-                                    const SceneLimits& limits) {
+                                    const SceneLimits& limits, SceneUse use) {
     FileReferencePolicy policy;
     policy.confinementRoot = bundleDirectory;
-    return withIntegrator(loadScene(scenePath, policy, {}, limits), integratorOverride);
+    return withIntegrator(loadScene(scenePath, policy, {}, limits, use), integratorOverride);
 }
 
 std::shared_ptr<Scene> loadSceneWithIntegrator(const std::string& scenePath,

@@ -19,11 +19,14 @@ namespace alphorn::farm {
 // With a nonempty `integratorOverride`, replaces the scene's integrator by a default-constructed
 // one of that XML type. Throws the loader's Error ("file:line: problem"), which names files by
 // their paths in the bundle and never shows where the bundle lies on the server; a scene beyond
-// `limits` throws ResourceLimitError before any mesh is built.
+// `limits` throws ResourceLimitError before any mesh is built, and every other refusal of what
+// asks for more memory or size than allowed is a ResourceLimitError too. The coordinator loads
+// with SceneUse::Check (everything but the acceleration structure), workers to render.
 std::shared_ptr<Scene> loadJobScene(const std::string& bundleDirectory,
                                     const std::string& scenePath,
                                     const std::string& integratorOverride,
-                                    const SceneLimits& limits = {});
+                                    const SceneLimits& limits = {},
+                                    SceneUse use = SceneUse::Render);
 
 // The same for a scene on disk, which may name any file (benchmarks comparing integrators).
 std::shared_ptr<Scene> loadSceneWithIntegrator(const std::string& scenePath,

@@ -113,6 +113,30 @@ TEST_F(JobSceneTest, SubmitRefusesAbsoluteReferencesBeforeUpload) {
     }
 }
 
+// `alphorn submit` lists the scene's files without loading it (loading a scene of thousands of
+// meshes took it longer than the upload): an OBJ file that loading refuses (a face beyond its
+// vertices) is bundled, for the coordinator to refuse at submit; a file that is missing is
+// refused before anything is uploaded, naming the scene's file and line.
+TEST_F(JobSceneTest, SubmitListsTheFilesWithoutLoadingTheScene) {
+    std::ofstream(m_dir / "bad.obj") << "v 0 0 0\nf 1 2 3\n";
+    std::ofstream(m_dir / "s.xml") << sceneNaming("bad.obj");
+    EXPECT_THROW(loadScene((m_dir / "s.xml").string()), Error);
+    const Bundle bundle = gatherBundle((m_dir / "s.xml").string());
+    ASSERT_EQ(bundle.files.size(), 2u);
+    EXPECT_EQ(bundle.files[0].path, "bad.obj");
+    EXPECT_EQ(bundle.files[0].sha256, sha256OfFile((m_dir / "bad.obj").string()));
+
+    std::ofstream(m_dir / "missing.xml") << sceneNaming("meshes/none.obj");
+    try {
+        gatherBundle((m_dir / "missing.xml").string());
+        FAIL() << "a scene naming a missing file was gathered";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("missing.xml:4:"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("cannot open OBJ file"), std::string::npos)
+            << e.what();
+    }
+}
+
 TEST_F(JobSceneTest, SubmitBundlesLinkedFilesWhereTheSceneNamesThem) {
     // The scene reaches its meshes through a symbolic link to a folder elsewhere: the bundle
     // holds them under the linked name, which is where the farm looks (it has no links).

@@ -38,7 +38,7 @@ void PhotonMappingIntegrator::checkPassMemory(const PropertyList& props, const s
                                               uint64_t bytes, const std::string& perPath) {
     const uint64_t memory = physicalMemoryBytes();
     if (bytes > memory)
-        props.fail(
+        props.failBeyondLimit(
             "%s need at least %s per photon pass (%s), more than this machine's %s of memory",
             counts, formatBytes(bytes), perPath, formatBytes(memory));
 }
@@ -50,8 +50,9 @@ void PhotonMappingIntegrator::checkNeighbourCount(const PropertyList& props, con
     const uint64_t bytes = uint64_t(std::max(k, 0)) * sizeof(Photon);
     const uint64_t memory = physicalMemoryBytes();
     if (bytes > memory)
-        props.fail("\"%s\" %d asks for more photons than fit in this machine's %s of memory (%s)",
-                   kName, k, formatBytes(memory), formatBytes(bytes));
+        props.failBeyondLimit(
+            "\"%s\" %d asks for more photons than fit in this machine's %s of memory (%s)", kName,
+            k, formatBytes(memory), formatBytes(bytes));
 }
 
 float PhotonMappingIntegrator::sceneDiagonal(const Scene& scene) {

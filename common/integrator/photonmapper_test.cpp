@@ -66,6 +66,9 @@ TEST_F(PhotonMapperTest, CountsBeyondMemoryAreErrorsNamingFileAndLine) {
                 "\"photonCount\" 2147483647 photon paths need at least 72.0 GiB per photon pass");
     expectError(integer("surfaceK", std::numeric_limits<int>::max()),
                 "\"surfaceK\" 2147483647 asks for more photons than fit");
+    // Beyond a limit, not malformed: the farm answers RESOURCE_EXHAUSTED.
+    EXPECT_THROW(load(integer("photonCount", std::numeric_limits<int>::max())), ResourceLimitError);
+    EXPECT_THROW(load(integer("surfaceK", std::numeric_limits<int>::max())), ResourceLimitError);
 }
 
 TEST_F(PhotonMapperTest, WithoutProgressiveEveryPassReadsOneMapPerSeed) {

@@ -87,7 +87,7 @@ BidirectionalIntegrator::BidirectionalIntegrator(const PropertyList& props, Kind
                    m_lightPathCountGiven);
     if (m_lightPathCountGiven > 0) {
         const std::string problem = lightPathMemoryProblem("\"lightPathCount\"");
-        if (!problem.empty()) props.fail("%s", problem);
+        if (!problem.empty()) props.failBeyondLimit("%s", problem);
     }
     m_lightTracingOnly = props.getBoolean("lightTracingOnly", false);
     bool connections = true, merging = false;
@@ -159,7 +159,7 @@ void BidirectionalIntegrator::preprocess(const Scene& scene) {
     if (m_lightPathCountGiven == 0) {
         const std::string problem =
             lightPathMemoryProblem("the default \"lightPathCount\" (the pixel count)");
-        if (!problem.empty()) fail("%s: %s", source(), problem);
+        if (!problem.empty()) failBeyondLimit("%s", problem);
     }
     if (!m_radiusGiven) {
         // The photon mapper's default: 1/500 of the scene's diagonal.

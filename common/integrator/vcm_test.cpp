@@ -9,6 +9,7 @@
 // means of passes. The cameras use a box filter: each pixel then holds exactly its one camera
 // sample plus the light splats, an unbiased estimate of the pixel's mean radiance.
 #include "common/core/rng.h"
+#include "common/core/system_memory.h"
 #include "common/render/local_render.h"
 #include "common/render/unit.h"
 #include "common/scene/parser.h"
@@ -392,6 +393,31 @@ TEST_F(VcmTest, RefusesWhatItCannotRender) {
         expectError(
             std::string("<scene><integrator type=\"vcm\">") + params + "</integrator>" + plain,
             "scene.xml:1:");
+}
+
+// Light path counts beyond memory, given or by default the pixel count (16384 x 16384 here, at
+// least 45 GiB), are beyond a limit, not malformed: the farm answers them RESOURCE_EXHAUSTED. The
+// message names the integrator's element once.
+TEST_F(VcmTest, LightPathCountsBeyondMemoryAreResourceLimits) {
+    const std::string plain = R"(<camera type="perspective"><integer name="width" value="4"/>
+        <integer name="height" value="4"/></camera>
+        <emitter type="point"><color name="power" value="1"/></emitter></scene>)";
+    EXPECT_THROW(loadText(R"(<scene><integrator type="vcm"><integer name="lightPathCount"
+        value="2147483647"/></integrator>)" +
+                          plain),
+                 ResourceLimitError);
+    if (physicalMemoryBytes() >= uint64_t(16384) * 16384 * 168) return;  // it would fit
+    try {
+        loadText(R"(<scene><integrator type="bdpt"/><camera type="perspective">
+            <integer name="width" value="16384"/><integer name="height" value="16384"/></camera>
+            <emitter type="point"><color name="power" value="1"/></emitter></scene>)");
+        ADD_FAILURE() << "16384 x 16384 light paths were accepted";
+    } catch (const ResourceLimitError& e) {
+        const std::string message = e.what();
+        EXPECT_NE(message.find("scene.xml:1:"), std::string::npos) << message;
+        EXPECT_EQ(message.find("scene.xml:1:"), message.rfind("scene.xml:1:")) << message;
+        EXPECT_NE(message.find("the default \"lightPathCount\""), std::string::npos) << message;
+    }
 }
 
 // The t-test's scene mode samples Li() alone, which never sees light tracing: a file testing

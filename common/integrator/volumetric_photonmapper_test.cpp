@@ -71,7 +71,7 @@ TEST_F(VolumetricPhotonMapperTest, CountsBeyondMemoryAreErrorsNamingFileAndLine)
         try {
             load(params, furnace(kFog));
             ADD_FAILURE() << "no error for " << params;
-        } catch (const Error& e) {
+        } catch (const ResourceLimitError& e) {
             const std::string message = e.what();
             EXPECT_NE(message.find("scene.xml:2:"), std::string::npos) << message;
             EXPECT_NE(message.find("2147483647"), std::string::npos) << message;

@@ -5,6 +5,8 @@
 
 #include <tbb/task_arena.h>
 
+#include <atomic>
+
 namespace alphorn {
 
 static thread_local uint64_t t_rayCount = 0;
@@ -73,7 +75,25 @@ unsigned attachTriangles(RTCDevice device, RTCScene scene, const Mesh& mesh) {
     return id;
 }
 
+namespace {
+std::atomic<uint64_t> g_embreeScenesBuilt{0};
+}  // namespace
+
+uint64_t embreeScenesBuilt() {
+    return g_embreeScenesBuilt.load();
+}
+
+void Accel::boundMeshes(const std::vector<std::shared_ptr<Mesh>>& meshes) {
+    release();
+    m_meshes.clear();
+    m_bounds.setEmpty();
+    // The meshes build() attaches, in its order, so that the bounds are the same floats.
+    for (const auto& mesh : meshes)
+        if (mesh->triangleCount() != 0) m_bounds.extend(mesh->bounds());
+}
+
 void Accel::build(const std::vector<std::shared_ptr<Mesh>>& meshes) {
+    ++g_embreeScenesBuilt;
     release();
     m_device = newEmbreeDevice();
     m_scene = rtcNewScene(m_device);

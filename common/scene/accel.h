@@ -16,6 +16,8 @@ class Accel {
     ~Accel();
 
     void build(const std::vector<std::shared_ptr<Mesh>>& meshes);
+    // Only the bounds build() gives, without Embree: nothing can be traced.
+    void boundMeshes(const std::vector<std::shared_ptr<Mesh>>& meshes);
     bool intersect(const Ray3f& ray, Intersection& its) const;
     bool occluded(const Ray3f& ray) const;
     const Eigen::AlignedBox3f& bounds() const { return m_bounds; }
@@ -30,6 +32,9 @@ class Accel {
     std::vector<const Mesh*> m_meshes;  // indexed by Embree geometry id
     Eigen::AlignedBox3f m_bounds;
 };
+
+// Embree scenes (BVHs) that Accel::build made in this process, for tests of what builds them.
+uint64_t embreeScenesBuilt();
 
 // Rays traced by the calling thread since it started; summed by the renderer for Mrays/s.
 uint64_t raysTracedByThisThread();

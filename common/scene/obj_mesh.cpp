@@ -202,9 +202,14 @@ size_t scanObjText(std::string& text, const std::string& name, bool prepare, Obj
     return faceCount;
 }
 
-std::string readObjFile(const std::string& path) {
+std::ifstream openObjFile(const std::string& path) {
     std::ifstream file(path, std::ios::binary);
     if (!file) fail("cannot open OBJ file \"%s\": %s", path, std::strerror(errno));
+    return file;
+}
+
+std::string readObjFile(const std::string& path) {
+    std::ifstream file = openObjFile(path);
     std::stringstream contents;
     contents << file.rdbuf();
     return std::move(contents).str();
@@ -356,5 +361,16 @@ class WavefrontOBJ : public Mesh {
 };
 
 ALPHORN_REGISTER(Mesh, "obj", WavefrontOBJ);
+
+// The file a <mesh type="obj"> reads, for listing a scene's files: opened, not read.
+void listObjFile(const PropertyList& props) {
+    const std::string path = props.resolvePath(props.getString("filename"));
+    try {
+        openObjFile(path);
+    } catch (const Error& e) {
+        props.fail("%s", e.what());
+    }
+}
+ALPHORN_REGISTER_FILES(Mesh, "obj", listObjFile);
 
 }  // namespace alphorn

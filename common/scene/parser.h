@@ -35,15 +35,32 @@ struct SceneLimits {
     std::string setting;
 };
 
+// What a scene is loaded for. Checking it (the coordinator at submit) builds every object as
+// rendering would, so every file is read and every value checked with the same errors, but no
+// acceleration structure: the scene knows its bounds (and its integrator's preprocess ran on
+// them) but cannot trace rays.
+enum class SceneUse { Render, Check };
+
 // Parses a scene or test file; throws Error("file:line:col: problem") on any problem. The policy
 // says which files the scene may name (any, by default). With a confinement root (a farm job's
 // bundle), messages name files relative to the root, so they never show where it lies. A scene
 // beyond the limits throws ResourceLimitError ("file:line (mesh ...): ...").
 ParseResult parseSceneFile(const std::string& path, const FileReferencePolicy& policy = {},
-                           const SceneOverrides& overrides = {}, const SceneLimits& limits = {});
+                           const SceneOverrides& overrides = {}, const SceneLimits& limits = {},
+                           SceneUse use = SceneUse::Render);
 // Parses a file whose root must be <scene>.
 std::shared_ptr<Scene> loadScene(const std::string& path, const FileReferencePolicy& policy = {},
                                  const SceneOverrides& overrides = {},
-                                 const SceneLimits& limits = {});
+                                 const SceneLimits& limits = {}, SceneUse use = SceneUse::Render);
+
+// The files a scene or test file names (resolved, as ParseResult::dependencies lists them),
+// found without building anything: the file is read as parseSceneFile reads it (malformed XML,
+// unknown elements, attributes and types, unparsable values, $names: the same file:line errors)
+// and every file reference is resolved under `policy` and refused, naming the element, when it
+// cannot be opened; but no mesh is read, no image decoded and no object made, so what only the
+// objects check (a value out of range, a misspelt property, a broken OBJ or PNG, the mesh
+// memory) is left to loading the scene.
+std::vector<std::string> listSceneFiles(const std::string& path,
+                                        const FileReferencePolicy& policy = {});
 
 }  // namespace alphorn

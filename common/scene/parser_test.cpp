@@ -1,11 +1,14 @@
 #include "common/scene/parser.h"
 
+#include "common/core/image.h"
+#include "common/scene/accel.h"
 #include "common/scene/scene.h"
 #include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -476,6 +479,112 @@ TEST_F(ConfinedParserTest, LocalScenesMayNameAnyFile) {
     relativeOnly.relativeOnly = true;
     EXPECT_NO_THROW(loadScene(sceneNaming("../../outside.obj"), relativeOnly));
     EXPECT_THROW(loadScene(sceneNaming((m_dir / "outside.obj").string()), relativeOnly), Error);
+}
+
+// Every way a scene names a file (an OBJ file, named twice and through "..", and bitmap textures
+// as a BSDF's albedo, a normal map, a projector's image and inside a combination texture) is
+// listed without building the scene, as the files loading it reads. (Media take 3D textures
+// only, so no medium names a file.)
+TEST_F(ParserTest, ListingNamesTheFilesLoadingReads) {
+    std::filesystem::create_directories(m_dir / "tex");
+    Image image(2, 2);
+    std::fill(image.rgb.begin(), image.rgb.end(), 0.5f);
+    for (const char* name :
+         {"tex/albedo.png", "tex/normals.png", "tex/slide.png", "tex/nested.png"})
+        writePNG((m_dir / name).string(), image);
+    const std::string path = write("files.xml", R"(<scene>
+<integrator type="volume_path_mis"/>
+<camera type="perspective"><integer name="width" value="8"/><integer name="height" value="6"/></camera>
+<emitter type="projector"><texture type="bitmap"><string name="filename" value="tex/slide.png"/></texture></emitter>
+<mesh type="obj"><string name="filename" value="triangle.obj"/>
+  <bsdf type="normalmap">
+    <bsdf type="diffuse"><texture type="bitmap" name="albedo"><string name="filename" value="tex/albedo.png"/></texture></bsdf>
+    <texture type="bitmap" name="normalmap"><string name="filename" value="tex/normals.png"/><boolean name="raw" value="true"/></texture>
+  </bsdf>
+</mesh>
+<mesh type="obj"><string name="filename" value="tex/../triangle.obj"/>
+  <bsdf type="diffuse">
+    <texture type="combination" name="albedo"><string name="operation" value="product"/>
+      <texture type="bitmap" name="a"><string name="filename" value="tex/nested.png"/></texture>
+      <texture type="constant" name="b"><color name="value" value="0.5"/></texture>
+    </texture>
+  </bsdf>
+</mesh>
+</scene>)");
+    auto sorted = [](std::vector<std::string> paths) {
+        std::sort(paths.begin(), paths.end());
+        return paths;
+    };
+    const std::vector<std::string> listed = sorted(listSceneFiles(path));
+    EXPECT_EQ(listed, sorted(parseSceneFile(path).dependencies));
+    std::vector<std::string> expected;
+    for (const char* name : {"triangle.obj", "triangle.obj", "tex/albedo.png", "tex/normals.png",
+                             "tex/slide.png", "tex/nested.png"})
+        expected.push_back((m_dir / name).string());
+    EXPECT_EQ(listed, sorted(expected));
+}
+
+// Listing reads no mesh and decodes no image: an OBJ file with a face beyond its vertices and a
+// PNG that is not one, both refused when the scene loads, are listed. The parser's own checks
+// and files that cannot be opened are refused as loading refuses them, naming file and line.
+TEST_F(ParserTest, ListingBuildsNothingButRefusesWhatTheParserAndMissingFilesWould) {
+    std::ofstream(m_dir / "bad.obj") << "v 0 0 0\nv 1 0 0\nf 1 2 3\n";
+    std::ofstream(m_dir / "bad.png") << "not a PNG";
+    const std::string path =
+        write("broken.xml", sceneWith(R"(<mesh type="obj"><string name="filename" value="bad.obj"/>
+<bsdf type="diffuse"><texture type="bitmap" name="albedo"><string name="filename" value="bad.png"/></texture></bsdf></mesh>)"));
+    EXPECT_THROW(parseSceneFile(path), Error);
+    std::vector<std::string> listed = listSceneFiles(path);
+    std::sort(listed.begin(), listed.end());
+    EXPECT_EQ(listed, (std::vector<std::string>{(m_dir / "bad.obj").string(),
+                                                (m_dir / "bad.png").string()}));
+
+    auto expectListingError = [&](const std::string& body, const std::string& fragment) {
+        const std::string bad = write("bad.xml", sceneWith(body));
+        try {
+            listSceneFiles(bad);
+            ADD_FAILURE() << "listed: " << body;
+        } catch (const Error& e) {
+            const std::string message = e.what();
+            EXPECT_NE(message.find(bad + ":4:"), std::string::npos) << message;
+            EXPECT_NE(message.find(fragment), std::string::npos) << message;
+        }
+    };
+    expectListingError(R"(<mesh type="obj"><string name="filename" value="none.obj"/></mesh>)",
+                       "cannot open OBJ file");
+    expectListingError(
+        R"(<mesh type="obj"><string name="filename" value="triangle.obj"/><bsdf type="diffuse"><texture type="bitmap" name="albedo"><string name="filename" value="none.png"/></texture></bsdf></mesh>)",
+        "the texture file");
+    expectListingError(R"(<mesh type="obj"/>)", "filename");
+    expectListingError(R"(<mesh type="ojb"/>)", "unknown mesh type \"ojb\"");
+    expectListingError(R"(<mesh type="obj"><float name="x" value="1.2.3"/></mesh>)",
+                       "could not parse the number");
+    expectListingError(R"(<mesh type="obj"><strnig name="filename" value="triangle.obj"/></mesh>)",
+                       "unknown element <strnig>");
+}
+
+// A scene loaded to be checked builds every object but no BVH, with the bounds (and so the
+// default radii) of a scene loaded to render.
+TEST_F(ParserTest, CheckingASceneBuildsNoBvhButKeepsItsBounds) {
+    const std::string path = write("photons.xml", R"(<scene>
+<integrator type="photonmapper"><boolean name="progressive" value="true"/><integer name="photonCount" value="100"/></integrator>
+<camera type="perspective"><integer name="width" value="8"/><integer name="height" value="6"/></camera>
+<emitter type="point"><point name="position" value="0, 1, 3"/><color name="power" value="1"/></emitter>
+<mesh type="obj"><string name="filename" value="triangle.obj"/>
+  <transform name="toWorld"><scale value="3, 2, 1"/><translate value="0.1, 0.2, 0.3"/></transform></mesh>
+</scene>)");
+    const uint64_t built = embreeScenesBuilt();
+    const std::shared_ptr<Scene> checked = loadScene(path, {}, {}, {}, SceneUse::Check);
+    EXPECT_EQ(embreeScenesBuilt(), built);
+    EXPECT_FALSE(checked->canTrace());
+    const std::shared_ptr<Scene> rendered = loadScene(path);
+    EXPECT_EQ(embreeScenesBuilt(), built + 1);
+    EXPECT_TRUE(rendered->canTrace());
+    EXPECT_EQ(checked->bounds().min(), rendered->bounds().min());
+    EXPECT_EQ(checked->bounds().max(), rendered->bounds().max());
+    ASSERT_TRUE(checked->integrator()->radiusSchedule());
+    EXPECT_EQ(checked->integrator()->radiusSchedule()->initialRadius,
+              rendered->integrator()->radiusSchedule()->initialRadius);
 }
 
 }  // namespace

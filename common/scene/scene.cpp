@@ -1,5 +1,6 @@
 #include "common/scene/scene.h"
 #include "common/scene/media_traversal.h"
+#include "common/scene/scene_load.h"
 
 #include <absl/strings/str_format.h>
 
@@ -7,7 +8,8 @@
 
 namespace alphorn {
 
-Scene::Scene(const PropertyList&) {}
+Scene::Scene(const PropertyList& props)
+    : m_buildsAcceleration(!props.loadContext() || props.loadContext()->buildsAcceleration()) {}
 
 void Scene::addChild(const std::shared_ptr<Object>& child, const std::string& name) {
     switch (child->kind()) {
@@ -57,7 +59,13 @@ void Scene::activate() {
             "warning: %s: the scene has no emitter; every integrator that transports light "
             "renders it black\n",
             source());
-    m_accel.build(m_meshes);
+    // Checking the scene needs its bounds (the integrators derive default radii from them), which
+    // are those of its meshes; Embree's BVH, the largest part of loading a scene of many
+    // meshes, is built only to trace rays.
+    if (m_buildsAcceleration)
+        m_accel.build(m_meshes);
+    else
+        m_accel.boundMeshes(m_meshes);
     checkMediaTrackingWork(*this);
     m_powerPdf.clear();
     for (const auto& emitter : m_emitters) {

@@ -20,6 +20,10 @@ class Scene : public Object {
     void activate() override;
     std::string toString() const override;
 
+    // Whether rays can be traced: false for a scene loaded only to be checked (SceneUse::Check),
+    // which has no acceleration structure (rayIntersect and rayOccluded would find nothing).
+    bool canTrace() const { return m_buildsAcceleration; }
+
     // Closest hit along the ray within [mint, maxt].
     bool rayIntersect(const Ray3f& ray, Intersection& its) const {
         return m_accel.intersect(ray, its);
@@ -53,6 +57,7 @@ class Scene : public Object {
     std::shared_ptr<Sampler> m_sampler;
     DiscretePDF m_powerPdf;
     Accel m_accel;
+    bool m_buildsAcceleration = true;
 };
 
 }  // namespace alphorn

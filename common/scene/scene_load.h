@@ -23,6 +23,11 @@ struct ObjGeometry {
 
 class SceneLoadContext {
   public:
+    // Whether the scene builds its acceleration structure (SceneUse::Render) or is loaded to be
+    // checked only (SceneUse::Check).
+    bool buildsAcceleration() const { return m_buildsAcceleration; }
+    void setBuildsAcceleration(bool builds) { m_buildsAcceleration = builds; }
+
     // Before any object is built, the parser announces each <mesh type="obj"> naming the OBJ
     // file at `path` (resolved).
     void announceObjFile(const std::string& path) { ++m_objFiles[path].usesLeft; }
@@ -49,6 +54,7 @@ class SceneLoadContext {
         std::shared_ptr<const ObjGeometry> geometry;
     };
     std::map<std::string, ObjFile> m_objFiles;
+    bool m_buildsAcceleration = true;
 };
 
 }  // namespace alphorn

@@ -23,8 +23,7 @@ class BitmapTexture : public Texture {
     enum class Wrap { Repeat, Clamp, Mirror };
 
     explicit BitmapTexture(const PropertyList& props) : m_mapping(props) {
-        const std::string filename = props.getString("filename");
-        m_path = props.resolvePath(filename);
+        m_path = props.resolvePath(props.getString("filename"));
         const std::string wrap = props.getString("wrapMode", "repeat");
         if (wrap == "repeat")
             m_wrap = Wrap::Repeat;
@@ -36,8 +35,7 @@ class BitmapTexture : public Texture {
             props.fail("wrapMode must be repeat, clamp or mirror, got \"%s\"", wrap);
         const bool raw = props.getBoolean("raw", false);
 
-        if (!std::filesystem::is_regular_file(m_path))
-            props.fail("the texture file \"%s\" does not exist", m_path);
+        failUnlessExists(props, m_path);
         const std::string extension =
             absl::AsciiStrToLower(std::filesystem::path(m_path).extension().string());
         try {
@@ -56,6 +54,7 @@ class BitmapTexture : public Texture {
         } catch (const Error& e) {
             const std::string message = e.what();
             if (message.rfind(props.source(), 0) == 0) throw;
+            if (dynamic_cast<const ResourceLimitError*>(&e)) props.failBeyondLimit("%s", message);
             props.fail("%s", message);
         }
         if (m_image.width <= 0 || m_image.height <= 0)
@@ -68,6 +67,11 @@ class BitmapTexture : public Texture {
             m_lower[i % 3] = std::min(m_lower[i % 3], v);
             m_upper[i % 3] = std::max(m_upper[i % 3], v);
         }
+    }
+
+    static void failUnlessExists(const PropertyList& props, const std::string& path) {
+        if (!std::filesystem::is_regular_file(path))
+            props.fail("the texture file \"%s\" does not exist", path);
     }
 
     Color3f eval(const Point2f& uvIn, const Point3f&) const override {
@@ -119,5 +123,11 @@ class BitmapTexture : public Texture {
 };
 
 ALPHORN_REGISTER(Texture, "bitmap", BitmapTexture);
+
+// The file a bitmap texture reads, for listing a scene's files: found, not decoded.
+void listBitmapFile(const PropertyList& props) {
+    BitmapTexture::failUnlessExists(props, props.resolvePath(props.getString("filename")));
+}
+ALPHORN_REGISTER_FILES(Texture, "bitmap", listBitmapFile);
 
 }  // namespace alphorn

@@ -64,8 +64,16 @@ std::vector<Tile> TileGrid::tilesReaching(const Tile& region) const {
     return reaching;
 }
 
+// A scene loaded only to be checked has no BVH: its rays would find nothing, and its image would
+// be black without a word.
+static void failUnlessTraceable(const Scene& scene) {
+    if (!scene.canTrace())
+        fail("cannot render a scene loaded only to be checked (it has no acceleration structure)");
+}
+
 std::vector<std::shared_ptr<const PassData>> preparePasses(const Scene& scene, uint64_t seed,
                                                            uint32_t begin, uint32_t end) {
+    failUnlessTraceable(scene);
     std::vector<std::shared_ptr<const PassData>> data;
     data.reserve(end - begin);
     for (uint32_t pass = begin; pass < end; ++pass) {
@@ -124,6 +132,7 @@ void splatTwoRadii(FilmBlock& block, const ReconstructionFilter& filter, const P
 bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
                 const std::vector<std::shared_ptr<const PassData>>& passData, FilmBlock& out,
                 RenderCounters* counters, const std::atomic<bool>* cancel) {
+    failUnlessTraceable(scene);
     const Camera& camera = *scene.camera();
     const Integrator& integrator = *scene.integrator();
     const ReconstructionFilter& filter = *camera.filter();

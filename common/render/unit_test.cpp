@@ -25,6 +25,25 @@ std::shared_ptr<Scene> sceneWithFilter(const std::string& name, const std::strin
                                                             filter, sourceDirectory())));
 }
 
+// A scene loaded only to be checked (as the coordinator does at submit) has no BVH: rendering it
+// is refused rather than left to give a black image.
+TEST(RenderUnit, RefusesASceneLoadedOnlyToBeChecked) {
+    const std::string path =
+        plugin_testing::writeTempFile("checked.xml", absl::StrFormat(R"(<scene>
+  <integrator type="normals"/>
+  <camera type="perspective"><integer name="width" value="8"/><integer name="height" value="8"/></camera>
+  <mesh type="obj"><string name="filename" value="%s/scenes/meshes/quad.obj"/></mesh>
+</scene>)",
+                                                                     sourceDirectory()));
+    const std::shared_ptr<Scene> checked = loadScene(path, {}, {}, {}, SceneUse::Check);
+    const RenderUnit unit{0, 1, Tile{0, 0, 8, 8}};
+    FilmBlock block = makeUnitBlock(*checked, unit.tile);
+    EXPECT_THROW(preparePasses(*checked, 1, 0, 1), Error);
+    EXPECT_THROW(renderUnit(*checked, 1, unit, {}, block), Error);
+    const std::shared_ptr<Scene> rendered = loadScene(path);
+    EXPECT_TRUE(renderUnit(*rendered, 1, unit, preparePasses(*rendered, 1, 0, 1), block));
+}
+
 // The border is the filter's radius plus half a pixel (a pixel's centre sits half a pixel in
 // from its edge), rounded up: every pixel a sample in the tile can splat into.
 TEST(UnitBlock, FilterBorderCoversTheFilterRadius) {

@@ -244,6 +244,13 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request,
         return entry != m_submissionsInProgress.end() && entry->second->waitingCalls > 0;
     };
 
+    // Loading the scene to check it allocates and frees much (meshes, textures), and the C
+    // library keeps what was freed in its per-thread arenas: without giving it back, the
+    // coordinator's resident memory grew with every submission (400 small jobs: 324 MB; 68 MB
+    // once given back). Given back when this call ends, whatever its outcome, outside the lock.
+    struct FreedMemoryGivenBack {
+        ~FreedMemoryGivenBack() { returnFreeMemoryToSystem(); }
+    } freedMemoryGivenBack;
     const AdmissionLimits limits{
         m_options.maxBundleBytes,  m_options.maxImagePixels,       m_options.maxPasses,
         m_options.defaultTileSize, m_options.defaultPassesPerUnit, m_options.maxMemoryBytes};

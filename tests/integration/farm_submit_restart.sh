@@ -75,6 +75,16 @@ in_flight() {
     PIDS+=("$!")
     eval "${name}_pid=$!"
 }
+# The in_flight command NAME ended well, having said that it waited for the coordinator and that
+# the coordinator was back.
+expect_reconnected() {
+    local name=$1 pid_var="${1}_pid"
+    wait "${!pid_var}" || fail "alphorn $name across a coordinator restart failed: $(cat "$WORK/$name.err")"
+    grep -q ": the coordinator went away .*waiting for it" "$WORK/$name.err" ||
+        fail "alphorn $name did not say that it waits for the coordinator: $(cat "$WORK/$name.err")"
+    grep -q ": reconnected to the coordinator" "$WORK/$name.err" ||
+        fail "alphorn $name did not say that the coordinator was back: $(cat "$WORK/$name.err")"
+}
 in_flight status status
 in_flight cancel cancel "$slow_job"
 in_flight fetch fetch 1 -o "$WORK/fetched.exr"
@@ -86,12 +96,7 @@ kill -9 "$COORDINATOR_PID"
 wait "$COORDINATOR_PID" || true
 start_coordinator "127.0.0.1:$PORT"
 for name in status cancel fetch workers logs; do
-    pid_var="${name}_pid"
-    wait "${!pid_var}" || fail "alphorn $name across a coordinator restart failed: $(cat "$WORK/$name.err")"
-    grep -q ": the coordinator went away .*waiting for it" "$WORK/$name.err" ||
-        fail "alphorn $name did not say that it waits for the coordinator: $(cat "$WORK/$name.err")"
-    grep -q ": reconnected to the coordinator" "$WORK/$name.err" ||
-        fail "alphorn $name did not say that the coordinator was back: $(cat "$WORK/$name.err")"
+    expect_reconnected "$name"
 done
 grep -q "cancelled" "$WORK/cancel.out" || fail "cancel did not show the job cancelled: $(cat "$WORK/cancel.out")"
 [[ $(job_field "$slow_job" state) == JOB_STATE_CANCELLED ]] || fail "job $slow_job is not cancelled"
@@ -117,12 +122,7 @@ kill -9 "$COORDINATOR_PID"
 wait "$COORDINATOR_PID" || true
 start_coordinator "127.0.0.1:$PORT"
 for name in retry delete; do
-    pid_var="${name}_pid"
-    wait "${!pid_var}" || fail "alphorn $name across a coordinator restart failed: $(cat "$WORK/$name.err")"
-    grep -q ": the coordinator went away .*waiting for it" "$WORK/$name.err" ||
-        fail "alphorn $name did not say that it waits for the coordinator: $(cat "$WORK/$name.err")"
-    grep -q ": reconnected to the coordinator" "$WORK/$name.err" ||
-        fail "alphorn $name did not say that the coordinator was back: $(cat "$WORK/$name.err")"
+    expect_reconnected "$name"
     grep -q "event=job.${name}_sent_again" "$WORK/coordinator.log" ||
         fail "the coordinator did not recognise the $name asked again"
 done

@@ -157,4 +157,13 @@ ObjCounts countObjText(std::string text, const std::string& name);
 // The same for a file; a file that cannot be read throws Error naming it.
 ObjCounts countObjFile(const std::string& path);
 
+// The counts and the text as preparedForTinyObj gives it, from one read of the file and one
+// pass over it: what the scene parser counts is what the mesh is then built from.
+struct CountedObj {
+    ObjCounts counts;
+    ObjText prepared;
+};
+CountedObj countedAndPreparedObjText(std::string text, const std::string& name);
+CountedObj countedAndPreparedObjFile(const std::string& path);
+
 }  // namespace alphorn

@@ -16,6 +16,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <tuple>
 
@@ -202,12 +203,23 @@ size_t scanObjText(std::string& text, const std::string& name, bool prepare, Obj
     return faceCount;
 }
 
+// Read in one call into a string of the file's size: copying the file through a growing
+// stringstream took longer than scanning the text (a copy per doubling, each faulting in fresh
+// pages). A file that grew meanwhile is read to its end.
 std::string readObjFile(const std::string& path) {
-    std::ifstream file(path, std::ios::binary);
+    std::ifstream file(path, std::ios::binary | std::ios::ate);
     if (!file) fail("cannot open OBJ file \"%s\": %s", path, std::strerror(errno));
-    std::stringstream contents;
-    contents << file.rdbuf();
-    return std::move(contents).str();
+    const std::streamoff size = file.tellg();
+    file.seekg(0);
+    std::string text(size > 0 ? static_cast<size_t>(size) : 0, '\0');
+    file.read(text.data(), static_cast<std::streamsize>(text.size()));
+    text.resize(static_cast<size_t>(file.gcount()));
+    if (file) {
+        std::ostringstream rest;
+        rest << file.rdbuf();
+        text += std::move(rest).str();
+    }
+    return text;
 }
 
 }  // namespace
@@ -220,16 +232,25 @@ ObjText preparedForTinyObj(std::string text, const std::string& name) {
     return {std::move(text), faceCount};
 }
 
-ObjCounts countObjText(std::string text, const std::string& name) {
+CountedObj countedAndPreparedObjText(std::string text, const std::string& name) {
     ObjCounter counter;
-    counter.counts.faces = scanObjText(text, name, /*prepare=*/false, &counter);
+    const size_t faceCount = scanObjText(text, name, /*prepare=*/true, &counter);
+    counter.counts.faces = faceCount;
     counter.counts.vertices = counter.vertices.size();
     if (counter.counts.faces == 0) counter.counts.normals = counter.counts.uvs = false;
-    return counter.counts;
+    return {counter.counts, {std::move(text), faceCount}};
+}
+
+ObjCounts countObjText(std::string text, const std::string& name) {
+    return countedAndPreparedObjText(std::move(text), name).counts;
+}
+
+CountedObj countedAndPreparedObjFile(const std::string& path) {
+    return countedAndPreparedObjText(readObjFile(path), path);
 }
 
 ObjCounts countObjFile(const std::string& path) {
-    return countObjText(readObjFile(path), path);
+    return countedAndPreparedObjFile(path).counts;
 }
 
 // Embree refuses (asserts on) rays whose origin has a coordinate beyond about 1.8e18, and rays
@@ -243,25 +264,36 @@ class WavefrontOBJ : public Mesh {
         std::string path = props.resolvePath(filename);
         Transform toWorld = props.getTransform("toWorld", Transform());
         m_name = filename;
-        // The file's mesh is read once for every <mesh> of the scene that names it.
-        auto read = [&] { return readGeometry(props, path); };
+        // The file's mesh is built once for every <mesh> of the scene that names it, from the
+        // text the parser's count read and checked when it kept it.
+        auto build = [&](std::optional<ObjText> counted) {
+            return readGeometry(props, path, std::move(counted));
+        };
         SceneLoadContext* context = props.loadContext();
-        place(props, path, context ? *context->objGeometry(path, read) : read(), toWorld);
+        place(props, path, context ? *context->objGeometry(path, build) : build(std::nullopt),
+              toWorld);
     }
 
   private:
-    static ObjGeometry readGeometry(const PropertyList& props, const std::string& path) {
-        std::string text;
-        try {
-            text = readObjFile(path);
-        } catch (const Error& e) {
-            props.fail("%s", e.what());
-        }
+    // The mesh of the file at `path`, from `counted` (its text as the count prepared it) or,
+    // without it, from the file read and prepared here.
+    static ObjGeometry readGeometry(const PropertyList& props, const std::string& path,
+                                    std::optional<ObjText> counted) {
         ObjText prepared;
-        try {
-            prepared = preparedForTinyObj(std::move(text), path);
-        } catch (const Error& e) {
-            props.fail("OBJ file %s", e.what());
+        if (counted) {
+            prepared = std::move(*counted);
+        } else {
+            std::string text;
+            try {
+                text = readObjFile(path);
+            } catch (const Error& e) {
+                props.fail("%s", e.what());
+            }
+            try {
+                prepared = preparedForTinyObj(std::move(text), path);
+            } catch (const Error& e) {
+                props.fail("OBJ file %s", e.what());
+            }
         }
         std::istringstream stream(std::move(prepared.text));
 

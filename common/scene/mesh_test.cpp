@@ -393,6 +393,44 @@ TEST(WavefrontOBJ, FacesBeyondTheVertexLimitAreRefused) {
     }
 }
 
+// Each face within the vertex limit triangulates quickly, but a file of thousands of them took
+// 0.04 s a face: the faces of more than 4 vertices may add up to kMaxObjTriangulationWork
+// squared vertices, and the face beyond is refused by the pass before tinyobjloader.
+TEST(WavefrontOBJ, FilesBeyondTheTriangulationWorkLimitAreRefused) {
+    const size_t n = kMaxObjFaceVertices;
+    std::string vertices, face = "f";
+    for (size_t i = 0; i < n; ++i) {
+        const double angle = 2.0 * M_PI * double(i) / double(n);
+        vertices += absl::StrFormat("v %.6f %.6f 0\n", std::cos(angle), std::sin(angle));
+        face += " " + std::to_string(i + 1);
+    }
+    face += "\n";
+    const size_t allowed = kMaxObjTriangulationWork / (n * n);
+    ASSERT_EQ(allowed * n * n, kMaxObjTriangulationWork);
+    std::string text = vertices;
+    for (size_t i = 0; i < allowed; ++i) text += face;
+    // Triangles and quads cost no more for being many.
+    for (int i = 0; i < 1000; ++i) text += "f 1 2 3 4\nf 1 2 3\n";
+    EXPECT_EQ(preparedForTinyObj(text, "m.obj").faceCount, allowed + 2000);
+    EXPECT_EQ(countObjText(text, "m.obj").faces, allowed + 2000);
+    text += "f 1 2 3 4 5\n";
+    const std::string expected = absl::StrFormat(
+        "m.obj:%d: a face with 5 vertices takes the file beyond the triangulation work allowed: "
+        "the squares of the vertex counts of its faces of more than 4 vertices add up to %u, more "
+        "than %u (%d faces of %d vertices;",
+        n + allowed + 2000 + 1, kMaxObjTriangulationWork + 25, kMaxObjTriangulationWork, allowed,
+        n);
+    for (auto pass : {+[](const std::string& text) { preparedForTinyObj(text, "m.obj"); },
+                      +[](const std::string& text) { countObjText(text, "m.obj"); }}) {
+        try {
+            pass(text);
+            FAIL() << "faces beyond the triangulation work limit were accepted";
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+        }
+    }
+}
+
 // A scene placing one OBJ file many times reads it once; each <mesh> gets the mesh it would have
 // got alone, moved by its own toWorld.
 TEST(WavefrontOBJ, AFileNamedByManyMeshesGivesEachTheMeshItWouldGetAlone) {

@@ -122,8 +122,10 @@ bool fitsFloat(std::string_view s) {
 
 // The problem with one line of an OBJ file that tinyobjloader would misread without a word, or
 // would take too long over, or "" when there is none. Only the lines Alphorn uses are checked:
-// v, vt, vn and f. With a counter, the line is counted too.
-std::string lineProblem(std::string_view line, ObjCounter* counter) {
+// v, vt, vn and f. With a counter, the line is counted too. `faceVertices` is set to the
+// vertices of a face line (0 for other lines).
+std::string lineProblem(std::string_view line, ObjCounter* counter, size_t& faceVertices) {
+    faceVertices = 0;
     // tinyobjloader's lines end at a NUL byte: whatever follows it would be dropped.
     if (line.find('\0') != std::string_view::npos) return "the line contains a NUL byte";
     size_t position = 0;
@@ -157,6 +159,7 @@ std::string lineProblem(std::string_view line, ObjCounter* counter) {
             "a face with %d vertices; at most %d (triangulating a polygon takes time quadratic in "
             "its vertices)",
             count, kMaxObjFaceVertices);
+    if (!numbers) faceVertices = count;
     if (numbers && !isAcceptedCount(keyword, count))
         return absl::StrFormat("\"%s\" has %d numbers; \"%s\" takes %s", shown(), count, keyword,
                                acceptedCounts(keyword));
@@ -170,10 +173,11 @@ std::string lineProblem(std::string_view line, ObjCounter* counter) {
 }
 
 // One pass over the lines as tinyobjloader splits them (at \n, \r or \r\n): each is checked
-// (and counted, with a counter); with `prepare`, the "vw" lines are emptied. Returns the "f"
-// lines.
+// (and counted, with a counter), and so is the file's triangulation work; with `prepare`, the
+// "vw" lines are emptied. Returns the "f" lines.
 size_t scanObjText(std::string& text, const std::string& name, bool prepare, ObjCounter* counter) {
-    size_t read = 0, write = 0, lineNumber = 1, faceCount = 0;
+    size_t read = 0, write = 0, lineNumber = 1, faceCount = 0, faceVertices = 0;
+    uint64_t triangulationWork = 0;
     while (read < text.size()) {
         size_t lineEnd = read;
         while (lineEnd < text.size() && text[lineEnd] != '\n' && text[lineEnd] != '\r') ++lineEnd;
@@ -184,8 +188,23 @@ size_t scanObjText(std::string& text, const std::string& name, bool prepare, Obj
                     ? 2
                     : 1;
         const std::string_view line(text.data() + read, lineEnd - read);
-        const std::string problem = lineProblem(line, counter);
+        const std::string problem = lineProblem(line, counter, faceVertices);
         if (!problem.empty()) fail("%s:%d: %s", name, lineNumber, problem);
+        // Each face within kMaxObjFaceVertices is quick to triangulate, but a file of thousands
+        // of them is not.
+        if (faceVertices > 4) {
+            triangulationWork += uint64_t(faceVertices) * faceVertices;
+            if (triangulationWork > kMaxObjTriangulationWork)
+                fail(
+                    "%s:%d: a face with %d vertices takes the file beyond the triangulation work "
+                    "allowed: the squares of the vertex counts of its faces of more than 4 "
+                    "vertices "
+                    "add up to %u, more than %u (%d faces of %d vertices; triangulating a polygon "
+                    "takes time quadratic in its vertices)",
+                    name, lineNumber, faceVertices, triangulationWork, kMaxObjTriangulationWork,
+                    kMaxObjTriangulationWork / (kMaxObjFaceVertices * kMaxObjFaceVertices),
+                    kMaxObjFaceVertices);
+        }
         size_t afterKeyword = 0;
         const std::string_view keyword = nextToken(line, afterKeyword);
         faceCount += keyword == "f";

@@ -130,11 +130,18 @@ uint64_t meshMemoryBytes(uint64_t triangles, uint64_t vertices, bool normals, bo
 // 0.05 s).
 constexpr size_t kMaxObjFaceVertices = 4096;
 
+// The most triangulation work an OBJ file may take: the sum of n^2 over its faces of n > 4
+// vertices (tinyobjloader splits triangles and quads at once and ear-clips the others), at most
+// that of 8 faces of kMaxObjFaceVertices. Without it a file of many such faces took 0.04 s a
+// face; the repository's scenes have no face of more than 4 vertices.
+constexpr uint64_t kMaxObjTriangulationWork = 8 * kMaxObjFaceVertices * kMaxObjFaceVertices;
+
 // The OBJ loader's pass over the text before tinyobjloader reads it (obj_mesh.cpp): refuses,
 // with "`name`:LINE: problem", the first line tinyobjloader would misread without a word (a
 // number that is not a finite decimal one, a wrong count of numbers, a face index that is not
 // an integer within int's range, a NUL byte) or would take too long over (a face of more than
-// kMaxObjFaceVertices), and empties the "vw" (skin weight) lines, which Alphorn ignores and
+// kMaxObjFaceVertices, or the face with which the file's faces go beyond
+// kMaxObjTriangulationWork), and empties the "vw" (skin weight) lines, which Alphorn ignores and
 // tinyobjloader parses unsafely.
 struct ObjText {
     std::string text;      // the file as tinyobjloader is to read it
@@ -156,5 +163,14 @@ struct ObjCounts {
 ObjCounts countObjText(std::string text, const std::string& name);
 // The same for a file; a file that cannot be read throws Error naming it.
 ObjCounts countObjFile(const std::string& path);
+
+// The counts and the text as preparedForTinyObj gives it, from one read of the file and one
+// pass over it: what the scene parser counts is what the mesh is then built from.
+struct CountedObj {
+    ObjCounts counts;
+    ObjText prepared;
+};
+CountedObj countedAndPreparedObjText(std::string text, const std::string& name);
+CountedObj countedAndPreparedObjFile(const std::string& path);
 
 }  // namespace alphorn

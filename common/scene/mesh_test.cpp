@@ -7,6 +7,7 @@
 #include "common/sampler/sampler.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "common/scene/scene_load.h"
 #include "tests/support/source_tree.h"
 
 #include <absl/strings/str_format.h>
@@ -392,6 +393,44 @@ TEST(WavefrontOBJ, FacesBeyondTheVertexLimitAreRefused) {
     }
 }
 
+// Each face within the vertex limit triangulates quickly, but a file of thousands of them took
+// 0.04 s a face: the faces of more than 4 vertices may add up to kMaxObjTriangulationWork
+// squared vertices, and the face beyond is refused by the pass before tinyobjloader.
+TEST(WavefrontOBJ, FilesBeyondTheTriangulationWorkLimitAreRefused) {
+    const size_t n = kMaxObjFaceVertices;
+    std::string vertices, face = "f";
+    for (size_t i = 0; i < n; ++i) {
+        const double angle = 2.0 * M_PI * double(i) / double(n);
+        vertices += absl::StrFormat("v %.6f %.6f 0\n", std::cos(angle), std::sin(angle));
+        face += " " + std::to_string(i + 1);
+    }
+    face += "\n";
+    const size_t allowed = kMaxObjTriangulationWork / (n * n);
+    ASSERT_EQ(allowed * n * n, kMaxObjTriangulationWork);
+    std::string text = vertices;
+    for (size_t i = 0; i < allowed; ++i) text += face;
+    // Triangles and quads cost no more for being many.
+    for (int i = 0; i < 1000; ++i) text += "f 1 2 3 4\nf 1 2 3\n";
+    EXPECT_EQ(preparedForTinyObj(text, "m.obj").faceCount, allowed + 2000);
+    EXPECT_EQ(countObjText(text, "m.obj").faces, allowed + 2000);
+    text += "f 1 2 3 4 5\n";
+    const std::string expected = absl::StrFormat(
+        "m.obj:%d: a face with 5 vertices takes the file beyond the triangulation work allowed: "
+        "the squares of the vertex counts of its faces of more than 4 vertices add up to %u, more "
+        "than %u (%d faces of %d vertices;",
+        n + allowed + 2000 + 1, kMaxObjTriangulationWork + 25, kMaxObjTriangulationWork, allowed,
+        n);
+    for (auto pass : {+[](const std::string& text) { preparedForTinyObj(text, "m.obj"); },
+                      +[](const std::string& text) { countObjText(text, "m.obj"); }}) {
+        try {
+            pass(text);
+            FAIL() << "faces beyond the triangulation work limit were accepted";
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+        }
+    }
+}
+
 // A scene placing one OBJ file many times reads it once; each <mesh> gets the mesh it would have
 // got alone, moved by its own toWorld.
 TEST(WavefrontOBJ, AFileNamedByManyMeshesGivesEachTheMeshItWouldGetAlone) {
@@ -415,6 +454,130 @@ TEST(WavefrontOBJ, AFileNamedByManyMeshesGivesEachTheMeshItWouldGetAlone) {
     EXPECT_EQ(second.faces(), single.faces());
     EXPECT_EQ(together->meshes()[0]->positions(), together->meshes()[2]->positions());
     EXPECT_NE(together->meshes()[0]->positions(), second.positions());
+}
+
+// The mesh of the OBJ file at `path`, built as the parser builds it with `context` (null: alone).
+std::shared_ptr<Mesh> objMesh(const std::string& path,
+                              std::shared_ptr<SceneLoadContext> context = nullptr) {
+    PropertyList props("test (mesh type=\"obj\")");
+    props.setString("filename", path);
+    props.setLoadContext(std::move(context));
+    return std::static_pointer_cast<Mesh>(ObjectFactory::create(ObjectKind::Mesh, "obj", props));
+}
+
+// A temporary OBJ file, removed at the end of the test.
+struct TemporaryObjFile {
+    explicit TemporaryObjFile(const std::string& name)
+        : path((std::filesystem::temp_directory_path() /
+                ("alphorn_mesh_test_" + std::to_string(::getpid()) + "_" + name + ".obj"))
+                   .string()) {}
+    ~TemporaryObjFile() { std::filesystem::remove(path); }
+    void write(const std::string& text) const { std::ofstream(path, std::ios::binary) << text; }
+    const std::string path;
+};
+
+const std::string kTriangleObj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+// Another mesh, with the skin weight and \r\n lines that preparing the text changes.
+const std::string kQuadObj =
+    "v 0 0 0\r\nv 2 0 0\r\nvw 0 1e20 1\r\nv 2 2 0\r\nv 0 2 0\r\nf 1 2 3 4\r\n";
+
+// The count reads and checks a file once; the first <mesh> naming it builds from that text, which
+// the file, changed or removed since, does not alter: the mesh built is the mesh counted.
+TEST(WavefrontOBJ, TheFirstMeshBuildsFromTheTextTheCountKept) {
+    const TemporaryObjFile file("kept");
+    file.write(kQuadObj);
+    const auto alone = objMesh(file.path);
+    auto context = std::make_shared<SceneLoadContext>();
+    context->announceObjFile(file.path);
+    context->announceObjFile(file.path);
+    CountedObj counted = countedAndPreparedObjFile(file.path);
+    const uint64_t bytes = counted.prepared.text.size();
+    EXPECT_TRUE(context->keepObjText(file.path, std::move(counted.prepared)));
+    EXPECT_EQ(context->keptObjTextBytes(), bytes);
+
+    file.write(kTriangleObj);
+    const auto first = objMesh(file.path, context);
+    EXPECT_EQ(context->keptObjTextBytes(), 0u) << "the text goes with the first mesh";
+    std::filesystem::remove(file.path);
+    const auto second = objMesh(file.path, context);
+    for (const auto& mesh : {first, second}) {
+        EXPECT_EQ(mesh->positions(), alone->positions());
+        EXPECT_EQ(mesh->faces(), alone->faces());
+        EXPECT_EQ(mesh->triangleCount(), counted.counts.triangles);
+        EXPECT_EQ(mesh->vertexCount(), counted.counts.vertices);
+    }
+}
+
+// The texts kept take at most the context's maximum together (one larger than it is kept when
+// it is the only one); a file whose text was not kept is read, checked and prepared when its
+// mesh is built, as it was read alone.
+TEST(WavefrontOBJ, TextsBeyondTheMaximumAreReadAgainWhenTheirMeshIsBuilt) {
+    const TemporaryObjFile large("large"), small("small");
+    large.write(kQuadObj);
+    small.write(kTriangleObj);
+    const uint64_t maximum = kTriangleObj.size() - 1;
+    auto context = std::make_shared<SceneLoadContext>(maximum);
+    context->announceObjFile(large.path);
+    context->announceObjFile(small.path);
+    EXPECT_TRUE(context->keepObjText(large.path, countedAndPreparedObjFile(large.path).prepared));
+    EXPECT_FALSE(context->keepObjText(small.path, countedAndPreparedObjFile(small.path).prepared));
+    EXPECT_FALSE(context->keepObjText("never/announced.obj", {"v 0 0 0\n", 0}));
+    EXPECT_GT(context->keptObjTextBytes(), maximum);
+
+    large.write(kTriangleObj);
+    small.write(kQuadObj);
+    EXPECT_EQ(objMesh(large.path, context)->triangleCount(), 2u) << "built from the kept quad";
+    EXPECT_EQ(context->keptObjTextBytes(), 0u);
+    EXPECT_EQ(objMesh(small.path, context)->triangleCount(), 2u) << "read again: now a quad";
+    // Read again, the file is checked again.
+    small.write("v 0 0 0\nv nan 0 0\n");
+    context->announceObjFile(small.path);
+    try {
+        objMesh(small.path, context);
+        FAIL() << "an unchecked file was built";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find(":2: \"v nan 0 0\""), std::string::npos) << e.what();
+    }
+}
+
+// The bytes this process has read from files so far (Linux's count of read() calls' bytes).
+uint64_t bytesReadSoFar() {
+    std::ifstream io("/proc/self/io");
+    std::string key;
+    uint64_t value = 0;
+    while (io >> key >> value)
+        if (key == "rchar:") return value;
+    ADD_FAILURE() << "no rchar in /proc/self/io";
+    return 0;
+}
+
+// A scene naming an OBJ file several times reads it once, for the count (the meshes are built
+// from that text), and builds each <mesh> as it would be built alone.
+TEST(WavefrontOBJ, AScenesFileIsReadOnceAndBuiltAsAlone) {
+    const TemporaryObjFile quad("scene_quad");
+    quad.write(kQuadObj);
+    const std::string sphere = meshFile("sphere.obj");
+    const std::string head = R"(<scene><integrator type="normals"/>
+<camera type="perspective"><integer name="width" value="4"/><integer name="height" value="4"/></camera>)";
+    auto element = [](const std::string& path) {
+        return R"(<mesh type="obj"><string name="filename" value=")" + path + R"("/></mesh>)";
+    };
+    const uint64_t before = bytesReadSoFar();
+    const auto scene = sceneFrom(head + element(sphere) + element(quad.path) + element(sphere) +
+                                 element(quad.path) + "</scene>");
+    const uint64_t read = bytesReadSoFar() - before;
+    const uint64_t sphereBytes = std::filesystem::file_size(sphere);
+    EXPECT_GE(read, sphereBytes);
+    EXPECT_LT(read, sphereBytes * 3 / 2) << "sphere.obj was read more than once";
+    ASSERT_EQ(scene->meshes().size(), 4u);
+    const auto sphereAlone = objMesh(sphere), quadAlone = objMesh(quad.path);
+    for (size_t i = 0; i < 4; ++i) {
+        const Mesh& alone = i % 2 == 0 ? *sphereAlone : *quadAlone;
+        EXPECT_EQ(scene->meshes()[i]->positions(), alone.positions()) << i;
+        EXPECT_EQ(scene->meshes()[i]->normals(), alone.normals()) << i;
+        EXPECT_EQ(scene->meshes()[i]->uvs(), alone.uvs()) << i;
+        EXPECT_EQ(scene->meshes()[i]->faces(), alone.faces()) << i;
+    }
 }
 
 // A scene whose meshes would take more memory than allowed is refused before any is built, at

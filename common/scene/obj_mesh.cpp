@@ -16,6 +16,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <tuple>
 
@@ -121,8 +122,10 @@ bool fitsFloat(std::string_view s) {
 
 // The problem with one line of an OBJ file that tinyobjloader would misread without a word, or
 // would take too long over, or "" when there is none. Only the lines Alphorn uses are checked:
-// v, vt, vn and f. With a counter, the line is counted too.
-std::string lineProblem(std::string_view line, ObjCounter* counter) {
+// v, vt, vn and f. With a counter, the line is counted too. `faceVertices` is set to the
+// vertices of a face line (0 for other lines).
+std::string lineProblem(std::string_view line, ObjCounter* counter, size_t& faceVertices) {
+    faceVertices = 0;
     // tinyobjloader's lines end at a NUL byte: whatever follows it would be dropped.
     if (line.find('\0') != std::string_view::npos) return "the line contains a NUL byte";
     size_t position = 0;
@@ -156,6 +159,7 @@ std::string lineProblem(std::string_view line, ObjCounter* counter) {
             "a face with %d vertices; at most %d (triangulating a polygon takes time quadratic in "
             "its vertices)",
             count, kMaxObjFaceVertices);
+    if (!numbers) faceVertices = count;
     if (numbers && !isAcceptedCount(keyword, count))
         return absl::StrFormat("\"%s\" has %d numbers; \"%s\" takes %s", shown(), count, keyword,
                                acceptedCounts(keyword));
@@ -169,10 +173,11 @@ std::string lineProblem(std::string_view line, ObjCounter* counter) {
 }
 
 // One pass over the lines as tinyobjloader splits them (at \n, \r or \r\n): each is checked
-// (and counted, with a counter); with `prepare`, the "vw" lines are emptied. Returns the "f"
-// lines.
+// (and counted, with a counter), and so is the file's triangulation work; with `prepare`, the
+// "vw" lines are emptied. Returns the "f" lines.
 size_t scanObjText(std::string& text, const std::string& name, bool prepare, ObjCounter* counter) {
-    size_t read = 0, write = 0, lineNumber = 1, faceCount = 0;
+    size_t read = 0, write = 0, lineNumber = 1, faceCount = 0, faceVertices = 0;
+    uint64_t triangulationWork = 0;
     while (read < text.size()) {
         size_t lineEnd = read;
         while (lineEnd < text.size() && text[lineEnd] != '\n' && text[lineEnd] != '\r') ++lineEnd;
@@ -183,8 +188,23 @@ size_t scanObjText(std::string& text, const std::string& name, bool prepare, Obj
                     ? 2
                     : 1;
         const std::string_view line(text.data() + read, lineEnd - read);
-        const std::string problem = lineProblem(line, counter);
+        const std::string problem = lineProblem(line, counter, faceVertices);
         if (!problem.empty()) fail("%s:%d: %s", name, lineNumber, problem);
+        // Each face within kMaxObjFaceVertices is quick to triangulate, but a file of thousands
+        // of them is not.
+        if (faceVertices > 4) {
+            triangulationWork += uint64_t(faceVertices) * faceVertices;
+            if (triangulationWork > kMaxObjTriangulationWork)
+                fail(
+                    "%s:%d: a face with %d vertices takes the file beyond the triangulation work "
+                    "allowed: the squares of the vertex counts of its faces of more than 4 "
+                    "vertices "
+                    "add up to %u, more than %u (%d faces of %d vertices; triangulating a polygon "
+                    "takes time quadratic in its vertices)",
+                    name, lineNumber, faceVertices, triangulationWork, kMaxObjTriangulationWork,
+                    kMaxObjTriangulationWork / (kMaxObjFaceVertices * kMaxObjFaceVertices),
+                    kMaxObjFaceVertices);
+        }
         size_t afterKeyword = 0;
         const std::string_view keyword = nextToken(line, afterKeyword);
         faceCount += keyword == "f";
@@ -208,11 +228,23 @@ std::ifstream openObjFile(const std::string& path) {
     return file;
 }
 
+// Read in one call into a string of the file's size: copying the file through a growing
+// stringstream took longer than scanning the text (a copy per doubling, each faulting in fresh
+// pages). A file that grew meanwhile is read to its end.
 std::string readObjFile(const std::string& path) {
-    std::ifstream file = openObjFile(path);
-    std::stringstream contents;
-    contents << file.rdbuf();
-    return std::move(contents).str();
+    std::ifstream file(path, std::ios::binary | std::ios::ate);
+    if (!file) fail("cannot open OBJ file \"%s\": %s", path, std::strerror(errno));
+    const std::streamoff size = file.tellg();
+    file.seekg(0);
+    std::string text(size > 0 ? static_cast<size_t>(size) : 0, '\0');
+    file.read(text.data(), static_cast<std::streamsize>(text.size()));
+    text.resize(static_cast<size_t>(file.gcount()));
+    if (file) {
+        std::ostringstream rest;
+        rest << file.rdbuf();
+        text += std::move(rest).str();
+    }
+    return text;
 }
 
 }  // namespace
@@ -225,16 +257,25 @@ ObjText preparedForTinyObj(std::string text, const std::string& name) {
     return {std::move(text), faceCount};
 }
 
-ObjCounts countObjText(std::string text, const std::string& name) {
+CountedObj countedAndPreparedObjText(std::string text, const std::string& name) {
     ObjCounter counter;
-    counter.counts.faces = scanObjText(text, name, /*prepare=*/false, &counter);
+    const size_t faceCount = scanObjText(text, name, /*prepare=*/true, &counter);
+    counter.counts.faces = faceCount;
     counter.counts.vertices = counter.vertices.size();
     if (counter.counts.faces == 0) counter.counts.normals = counter.counts.uvs = false;
-    return counter.counts;
+    return {counter.counts, {std::move(text), faceCount}};
+}
+
+ObjCounts countObjText(std::string text, const std::string& name) {
+    return countedAndPreparedObjText(std::move(text), name).counts;
+}
+
+CountedObj countedAndPreparedObjFile(const std::string& path) {
+    return countedAndPreparedObjText(readObjFile(path), path);
 }
 
 ObjCounts countObjFile(const std::string& path) {
-    return countObjText(readObjFile(path), path);
+    return countedAndPreparedObjFile(path).counts;
 }
 
 // Embree refuses (asserts on) rays whose origin has a coordinate beyond about 1.8e18, and rays
@@ -248,25 +289,36 @@ class WavefrontOBJ : public Mesh {
         std::string path = props.resolvePath(filename);
         Transform toWorld = props.getTransform("toWorld", Transform());
         m_name = filename;
-        // The file's mesh is read once for every <mesh> of the scene that names it.
-        auto read = [&] { return readGeometry(props, path); };
+        // The file's mesh is built once for every <mesh> of the scene that names it, from the
+        // text the parser's count read and checked when it kept it.
+        auto build = [&](std::optional<ObjText> counted) {
+            return readGeometry(props, path, std::move(counted));
+        };
         SceneLoadContext* context = props.loadContext();
-        place(props, path, context ? *context->objGeometry(path, read) : read(), toWorld);
+        place(props, path, context ? *context->objGeometry(path, build) : build(std::nullopt),
+              toWorld);
     }
 
   private:
-    static ObjGeometry readGeometry(const PropertyList& props, const std::string& path) {
-        std::string text;
-        try {
-            text = readObjFile(path);
-        } catch (const Error& e) {
-            props.fail("%s", e.what());
-        }
+    // The mesh of the file at `path`, from `counted` (its text as the count prepared it) or,
+    // without it, from the file read and prepared here.
+    static ObjGeometry readGeometry(const PropertyList& props, const std::string& path,
+                                    std::optional<ObjText> counted) {
         ObjText prepared;
-        try {
-            prepared = preparedForTinyObj(std::move(text), path);
-        } catch (const Error& e) {
-            props.fail("OBJ file %s", e.what());
+        if (counted) {
+            prepared = std::move(*counted);
+        } else {
+            std::string text;
+            try {
+                text = readObjFile(path);
+            } catch (const Error& e) {
+                props.fail("%s", e.what());
+            }
+            try {
+                prepared = preparedForTinyObj(std::move(text), path);
+            } catch (const Error& e) {
+                props.fail("OBJ file %s", e.what());
+            }
         }
         std::istringstream stream(std::move(prepared.text));
 

@@ -202,10 +202,11 @@ class Parser {
 
     // Before any object is built: the OBJ file that each <mesh type="obj"> names is counted
     // (once per file, without building anything) and announced to the load context, which then
-    // keeps a file's mesh until every <mesh> naming it has it. A scene whose meshes would take
-    // more memory than allowed is refused at the mesh from which on they do, naming the whole
-    // scene's figures. A mesh whose file cannot be named or counted here is left to its plugin,
-    // which reports the problem where it belongs as the scene is built.
+    // keeps a file's mesh until every <mesh> naming it has it, and the text counted (checked and
+    // prepared for tinyobjloader) until the first of them builds from it. A scene whose meshes
+    // would take more memory than allowed is refused at the mesh from which on they do, naming the
+    // whole scene's figures. A mesh whose file cannot be named or counted here is left to its
+    // plugin, which reports the problem where it belongs as the scene is built.
     void checkGeometry(pugi::xml_document& doc) {
         struct Meshes : pugi::xml_tree_walker {
             std::vector<pugi::xml_node> nodes;
@@ -238,15 +239,19 @@ class Parser {
                 continue;
             }
             auto [entry, isNew] = counted.try_emplace(path);
+            std::optional<ObjText> text;
             if (isNew) {
                 try {
-                    entry->second = countObjFile(path);
+                    CountedObj file = countedAndPreparedObjFile(path);
+                    entry->second = file.counts;
+                    text = std::move(file.prepared);
                 } catch (const Error&) {
                 }
             }
             if (!entry->second) continue;
             const ObjCounts& counts = *entry->second;
             m_loadContext->announceObjFile(path);
+            if (text) m_loadContext->keepObjText(path, std::move(*text));
             ++meshCount;
             triangles += counts.triangles;
             vertices += counts.vertices;

@@ -20,8 +20,8 @@ uint64_t residentMemoryBytes() {
     return resident * uint64_t(::sysconf(_SC_PAGE_SIZE));
 }
 
-bool returnFreeMemoryToSystem() {
-    return ::malloc_trim(0) != 0;
+void returnFreeMemoryToSystem() {
+    ::malloc_trim(0);
 }
 
 std::string formatBytes(uint64_t bytes) {

@@ -15,8 +15,8 @@ uint64_t residentMemoryBytes();
 
 // Gives the memory the C library holds free back to the system (glibc keeps freed memory in
 // its per-thread arenas, so a process that freed a large scene still looks as large as with
-// it). Returns whether any was given back.
-bool returnFreeMemoryToSystem();
+// it).
+void returnFreeMemoryToSystem();
 
 // "23.5 GiB", "512 MiB", "12 KiB", "100 bytes": a size for messages.
 std::string formatBytes(uint64_t bytes);

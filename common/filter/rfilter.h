@@ -1,5 +1,7 @@
 // Pixel reconstruction filters (Nori's). A sample at image position x contributes to every pixel
-// whose centre lies within radius(); the 2D weight is eval(dx) * eval(dy).
+// whose centre lies within radius(); the 2D weight is eval(dx) * eval(dy). eval's magnitude is
+// at most 1 (every filter here peaks at 1 or below): the film rounds the taps of most samples
+// through 64-bit integers (film.cpp) and relies on it.
 #pragma once
 
 #include "common/core/object.h"

@@ -194,32 +194,61 @@ void forEachTap(const FilmBlock& block, const ReconstructionFilter& filter, cons
     }
 }
 
-void addTap(PixelSum& sum, float w, const Color3f& value, SampleWeight weight) {
-    for (int c = 0; c < 3; ++c) sum.rgb[c] += toFixedPoint(double(w) * double(value[c]));
-    if (weight == SampleWeight::Counted) sum.weight += toFixedPoint(w);
+// A sample's value as its taps add it. Every tap's w * value (exact in double: two floats'
+// product) is rounded once to fixed point, as toFixedPoint rounds it. When every channel is
+// below kFixedPointSampleLimit, w * value * 2^40 is below 2^62 (|w| <= 1, rfilter.h) and one
+// conversion instruction rounds it (roundToInt64); brighter samples go through toFixedPoint.
+// Either way a tap's integers depend on w and the value alone, so the sums do not depend on
+// which block, thread or worker adds which taps.
+struct SplatValue {
+    explicit SplatValue(const Color3f& value) : value(value) {
+        fitsInt64 = value.abs().maxCoeff() < kFixedPointSampleLimit;
+        for (int c = 0; c < 3; ++c) scaled[c] = double(value[c]) * kFixedPointScale;
+    }
+    Color3f value;
+    bool fitsInt64;
+    double scaled[3];  // value * 2^40, exact
+};
+
+// The taps of samples at or above kFixedPointSampleLimit: rare, kept out of the inlined path.
+[[gnu::noinline]] void addBrightTap(PixelSum& sum, double w, const Color3f& value) {
+    for (int c = 0; c < 3; ++c) sum.rgb[c] += toFixedPoint(w * double(value[c]));
+}
+
+inline void addTap(PixelSum& sum, float w, const SplatValue& value, SampleWeight weight) {
+    const double wd = w;
+    if (value.fitsInt64) [[likely]] {
+        for (int c = 0; c < 3; ++c) sum.rgb[c] += roundToInt64(wd * value.scaled[c]);
+    } else {
+        addBrightTap(sum, wd, value.value);
+    }
+    if (weight == SampleWeight::Counted) sum.weight += roundToInt64(wd * kFixedPointScale);
 }
 
 }  // namespace
 
 void splatFiltered(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
                    const Color3f& value, SampleWeight weight) {
+    const SplatValue v(value);
     forEachTap(block, filter, position,
-               [&](int x, int y, float w) { addTap(block.at(x, y), w, value, weight); });
+               [&](int x, int y, float w) { addTap(block.at(x, y), w, v, weight); });
 }
 
 void splatFilteredSmallerRadius(FilmBlock& block, const ReconstructionFilter& filter,
                                 const Point2f& position, const Color3f& value) {
+    const SplatValue v(value);
     forEachTap(block, filter, position, [&](int x, int y, float w) {
-        addTap(block.smallerRadiusAt(x, y), w, value, SampleWeight::Counted);
+        addTap(block.smallerRadiusAt(x, y), w, v, SampleWeight::Counted);
     });
 }
 
 void splatFilteredTwoRadii(FilmBlock& block, const ReconstructionFilter& filter,
                            const Point2f& position, const Color3f& value,
                            const Color3f& smallerRadiusValue) {
+    const SplatValue v(value), smaller(smallerRadiusValue);
     forEachTap(block, filter, position, [&](int x, int y, float w) {
-        addTap(block.at(x, y), w, value, SampleWeight::Counted);
-        addTap(block.smallerRadiusAt(x, y), w, smallerRadiusValue, SampleWeight::Counted);
+        addTap(block.at(x, y), w, v, SampleWeight::Counted);
+        addTap(block.smallerRadiusAt(x, y), w, smaller, SampleWeight::Counted);
     });
 }
 

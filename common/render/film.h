@@ -21,6 +21,9 @@
 
 #include <cmath>
 #include <cstdint>
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 #include <string>
 #include <string_view>
 #include <vector>
@@ -33,6 +36,9 @@ inline constexpr double kFixedPointScale = 0x1p40;
 // |contribution| above this would overflow after summing ~2^40 samples; such samples are
 // counted as invalid rather than silently clamped.
 inline constexpr double kFixedPointLimit = 0x1p46;
+// A sample whose every channel is below this has all its taps' contributions below 2^62 (filter
+// weights are at most 1 in magnitude): they round to fixed point through 64-bit integers.
+inline constexpr double kFixedPointSampleLimit = 0x1p22;
 
 struct PixelSum {
     FixedPoint rgb[3] = {0, 0, 0};
@@ -60,6 +66,20 @@ inline FixedPoint toFixedPoint(double value) {
     // 64-bit integer (all but absurdly bright samples) converts exactly through int64_t instead.
     if (magnitude < 0x1p62) return static_cast<int64_t>(scaled);
     return static_cast<FixedPoint>(scaled);
+}
+// A double rounded to the nearest 64-bit integer, ties to even, as toFixedPoint rounds:
+// |scaled| must be below 2^63. On x86-64 one conversion instruction (cvtsd2si rounds in the
+// current rounding mode, round to nearest unless a program changes it, which Alphorn never
+// does; the addition of 2^52 in toFixedPoint relies on the same mode).
+inline int64_t roundToInt64(double scaled) {
+#if defined(__x86_64__)
+    return _mm_cvtsd_si64(_mm_set_sd(scaled));
+#else
+    const double magnitude = std::abs(scaled);
+    const double rounded = magnitude < 0x1p52 ? (magnitude + 0x1p52) - 0x1p52 : magnitude;
+    const int64_t integer = static_cast<int64_t>(rounded);
+    return scaled < 0.0 ? -integer : integer;
+#endif
 }
 inline double fromFixedPoint(FixedPoint value) {
     return static_cast<double>(value) / kFixedPointScale;

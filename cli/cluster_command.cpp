@@ -132,6 +132,14 @@ class WorkerPool {
         }
     }
 
+    // True once every worker died too often to be started again: the farm can render nothing.
+    bool allGivenUp() {
+        std::lock_guard lock(m_mutex);
+        for (const Worker& worker : m_workers)
+            if (worker.pid > 0) return false;
+        return !m_workers.empty();
+    }
+
     void stop() {
         std::vector<pid_t> pids;
         {
@@ -240,9 +248,18 @@ int runCluster(ClusterOptions options) {
         address, options.workers, threads, root,
         temporary && !options.keep ? "; the state and caches are removed, --keep keeps them" : "");
     // Restarts a worker that dies (a crash, the OOM killer, a stray kill) and says so.
+    // With no worker left a job never ends and `--render` waited for ever: stop the farm, exit 1.
     std::thread watchdog([&] {
         while (!stopped.load()) {
             workers->restartDead();
+            if (workers->allGivenUp() && !stopped.load()) {
+                std::cerr << absl::StrFormat(
+                    "cluster: error: no worker is left (each one died too often to be started "
+                    "again; see their logs in %s); stopping the farm\n",
+                    root);
+                shutdown();
+                std::_Exit(kExitError);
+            }
             std::this_thread::sleep_for(std::chrono::milliseconds(200));
         }
     });
@@ -295,7 +312,8 @@ Command addClusterCommand(CLI::App& app) {
                                        "Run a one-machine farm (a coordinator and N workers on "
                                        "loopback); optionally render through it.");
     sub->add_option("--workers", options->workers, "Number of workers")->check(CLI::Range(1, 256));
-    sub->add_option("--threads", options->threads, "Threads per worker (default: cores / workers)");
+    sub->add_option("--threads", options->threads, "Threads per worker (default: cores / workers)")
+        ->check(CLI::Range(0, 1024));
     sub->add_option("--state-dir", options->stateDir,
                     "Keep state, tokens and logs here (default: a temporary directory)");
     sub->add_flag("--keep", options->keep, "Keep the temporary directory on exit");

@@ -82,7 +82,9 @@ int main(int argc, char** argv) {
     app.add_option("--max-memory", options.maxMemoryBytes,
                    "Memory the running jobs' films and unit tables may take together, e.g. 8GB "
                    "(default: half the physical memory); a job that would exceed it is refused")
-        ->transform(CLI::AsSizeValue(false));
+        ->transform(CLI::AsSizeValue(false))
+        // transform() puts a validator first: the sign is checked before the size is read.
+        ->transform(farm::kNotNegativeSize);
     app.add_option("--port-file", portFile, "Write the bound port to this file once listening");
     std::string httpListen, httpPortFile, metricsTokenFile;
     bool anonymousMetrics = false;

@@ -9,6 +9,7 @@
 #include <netdb.h>
 #include <openssl/crypto.h>
 #include <openssl/err.h>
+#include <openssl/pem.h>
 #include <openssl/rand.h>
 #include <openssl/ssl.h>
 #include <poll.h>
@@ -86,6 +87,24 @@ void addBearer(grpc::ClientContext& context, const std::string& token) {
     context.AddMetadata("authorization", "Bearer " + token);
 }
 
+namespace {
+
+// The X.509 certificates in PEM text, as OpenSSL reads them.
+int countPemCertificates(const std::string& pem) {
+    BIO* bio = BIO_new_mem_buf(pem.data(), static_cast<int>(pem.size()));
+    if (!bio) return 0;
+    int count = 0;
+    while (X509* certificate = PEM_read_bio_X509(bio, nullptr, nullptr, nullptr)) {
+        X509_free(certificate);
+        ++count;
+    }
+    BIO_free(bio);
+    ERR_clear_error();  // the read that ends the loop leaves an error queued
+    return count;
+}
+
+}  // namespace
+
 std::shared_ptr<grpc::Channel> makeChannel(const std::string& address,
                                            const std::string& caCertPath) {
     grpc::ChannelArguments arguments;
@@ -109,6 +128,14 @@ std::shared_ptr<grpc::Channel> makeChannel(const std::string& address,
     } else {
         grpc::SslCredentialsOptions options;
         options.pem_root_certs = readFile(caCertPath);
+        // gRPC takes a file that holds no certificate (a key, a wrong file) and fails every
+        // connection attempt with a log line: a worker retried for ever, a client reported an
+        // unreachable coordinator. Say what is wrong instead, before connecting.
+        if (countPemCertificates(options.pem_root_certs) == 0)
+            fail(
+                "%s: holds no PEM certificate (--tls-ca names the CA certificate that signed the "
+                "coordinator's, \"-----BEGIN CERTIFICATE-----\" ...)",
+                caCertPath);
         credentials = grpc::SslCredentials(options);
     }
     return grpc::CreateCustomChannel(address, credentials, arguments);

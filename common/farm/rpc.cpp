@@ -103,6 +103,40 @@ int countPemCertificates(const std::string& pem) {
     return count;
 }
 
+// Refuses a certificate or key file gRPC cannot use, and a key that is not the certificate's:
+// gRPC gave only "cannot listen on ADDRESS" for them, which blames the address.
+void checkServerKeyPair(const std::string& certPath, const std::string& certPem,
+                        const std::string& keyPath, const std::string& keyPem) {
+    if (countPemCertificates(certPem) == 0)
+        fail(
+            "%s: holds no PEM certificate (--tls-cert names the coordinator's certificate "
+            "chain, \"-----BEGIN CERTIFICATE-----\" ...)",
+            certPath);
+    BIO* keyBio = BIO_new_mem_buf(keyPem.data(), static_cast<int>(keyPem.size()));
+    // No passphrase: OpenSSL's default callback would ask for one on the terminal.
+    pem_password_cb* noPassphrase = [](char*, int, int, void*) { return 0; };
+    EVP_PKEY* key =
+        keyBio ? PEM_read_bio_PrivateKey(keyBio, nullptr, noPassphrase, nullptr) : nullptr;
+    BIO_free(keyBio);
+    BIO* certBio = BIO_new_mem_buf(certPem.data(), static_cast<int>(certPem.size()));
+    X509* certificate = certBio ? PEM_read_bio_X509(certBio, nullptr, nullptr, nullptr) : nullptr;
+    BIO_free(certBio);
+    const bool matches = key && certificate && X509_check_private_key(certificate, key) == 1;
+    X509_free(certificate);
+    EVP_PKEY_free(key);
+    ERR_clear_error();
+    if (!key)
+        fail(
+            "%s: holds no unencrypted PEM private key (--tls-key names the key of --tls-cert, "
+            "\"-----BEGIN PRIVATE KEY-----\" ...)",
+            keyPath);
+    if (!matches)
+        fail(
+            "%s: the private key does not belong to the first certificate of %s (--tls-key and "
+            "--tls-cert must be a pair)",
+            keyPath, certPath);
+}
+
 }  // namespace
 
 std::shared_ptr<grpc::Channel> makeChannel(const std::string& address,
@@ -295,6 +329,8 @@ std::shared_ptr<grpc::ServerCredentials> makeServerCredentials(const std::string
     if (certPath.empty()) return grpc::InsecureServerCredentials();
     grpc::SslServerCredentialsOptions options;
     options.pem_key_cert_pairs.push_back({readFile(keyPath), readFile(certPath)});
+    checkServerKeyPair(certPath, options.pem_key_cert_pairs[0].cert_chain, keyPath,
+                       options.pem_key_cert_pairs[0].private_key);
     return grpc::SslServerCredentials(options);
 }
 

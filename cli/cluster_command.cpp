@@ -94,6 +94,16 @@ void stopProcesses(const std::vector<pid_t>& pids) {
     }
 }
 
+// How a child ended, from its wait status: "exited with code 1", "was killed by signal 9 (Killed)".
+std::string describeExit(int status) {
+    return WIFSIGNALED(status) ? absl::StrFormat("was killed by signal %d (%s)", WTERMSIG(status),
+                                                 strsignal(WTERMSIG(status)))
+                               : absl::StrFormat("exited with code %d", WEXITSTATUS(status));
+}
+
+// How often a daemon of the cluster is started again before it is given up.
+constexpr int kMaxRestarts = 10;
+
 // The workers of a cluster: started, watched, restarted when one dies, stopped at the end.
 class WorkerPool {
   public:
@@ -111,10 +121,7 @@ class WorkerPool {
             if (worker.pid <= 0) continue;
             int status = 0;
             if (::waitpid(worker.pid, &status, WNOHANG) != worker.pid) continue;
-            const std::string how =
-                WIFSIGNALED(status) ? absl::StrFormat("was killed by signal %d (%s)",
-                                                      WTERMSIG(status), strsignal(WTERMSIG(status)))
-                                    : absl::StrFormat("exited with code %d", WEXITSTATUS(status));
+            const std::string how = describeExit(status);
             const std::string log = logPath(worker.index);
             if (++worker.restarts > kMaxRestarts) {
                 std::cerr << absl::StrFormat(
@@ -132,6 +139,14 @@ class WorkerPool {
         }
     }
 
+    // True once every worker died too often to be started again: the farm can render nothing.
+    bool allGivenUp() {
+        std::lock_guard lock(m_mutex);
+        for (const Worker& worker : m_workers)
+            if (worker.pid > 0) return false;
+        return !m_workers.empty();
+    }
+
     void stop() {
         std::vector<pid_t> pids;
         {
@@ -144,7 +159,6 @@ class WorkerPool {
     }
 
   private:
-    static constexpr int kMaxRestarts = 10;
     struct Worker {
         int index;
         pid_t pid;
@@ -202,17 +216,26 @@ int runCluster(ClusterOptions options) {
     fs::remove(portFile);
 
     std::unique_ptr<WorkerPool> workers;
-    pid_t coordinator = spawn({findExecutable("alphorn-coordinator"), "--listen", "127.0.0.1:0",
-                               "--state-dir", root + "/state", "--client-token-file", clientToken,
-                               "--worker-token-file", workerToken, "--port-file", portFile},
-                              root + "/coordinator.log");
+    std::vector<std::string> coordinatorArguments = {findExecutable("alphorn-coordinator"),
+                                                     "--listen",
+                                                     "127.0.0.1:0",
+                                                     "--state-dir",
+                                                     root + "/state",
+                                                     "--client-token-file",
+                                                     clientToken,
+                                                     "--worker-token-file",
+                                                     workerToken,
+                                                     "--port-file",
+                                                     portFile};
+    const std::string coordinatorLog = root + "/coordinator.log";
+    pid_t coordinator = spawn(coordinatorArguments, coordinatorLog);  // -1 once given up
     std::atomic<bool> stopped{false};
     std::mutex shutdownMutex;
     auto shutdown = [&] {
         std::lock_guard lock(shutdownMutex);
         if (stopped.exchange(true)) return;
         if (workers) workers->stop();
-        stopProcesses({coordinator});
+        if (coordinator > 0) stopProcesses({coordinator});
         if (temporary && !options.keep) removeAllButLogs(root);
         std::cerr << "cluster: logs kept in " << root << "\n";
     };
@@ -228,6 +251,32 @@ int runCluster(ClusterOptions options) {
     }
     const std::string address =
         "127.0.0.1:" + std::string(absl::StripAsciiWhitespace(farm::readFile(portFile)));
+    // A coordinator that dies (the OOM killer, a stray kill) is started again on the same port
+    // and state: it resumes the jobs from their checkpoints, and the workers and a waiting
+    // `--render` reconnect. Before, the cluster went on "running" with no coordinator.
+    coordinatorArguments[2] = address;
+    int coordinatorRestarts = 0;
+    auto restartCoordinator = [&] {
+        std::lock_guard lock(shutdownMutex);
+        int status = 0;
+        if (stopped.load() || coordinator <= 0 ||
+            ::waitpid(coordinator, &status, WNOHANG) != coordinator)
+            return true;
+        if (++coordinatorRestarts > kMaxRestarts) {
+            std::cerr << absl::StrFormat(
+                "cluster: error: the coordinator (pid %d) %s; it died %d times, not restarting "
+                "it (log: %s); stopping the farm\n",
+                coordinator, describeExit(status), coordinatorRestarts, coordinatorLog);
+            coordinator = -1;
+            return false;
+        }
+        const pid_t previous = coordinator;
+        coordinator = spawn(coordinatorArguments, coordinatorLog);
+        std::cerr << absl::StrFormat(
+            "cluster: coordinator (pid %d) %s; restarted it as pid %d on %s (log: %s)\n", previous,
+            describeExit(status), coordinator, address, coordinatorLog);
+        return true;
+    };
     const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     const int threads =
         options.threads > 0 ? options.threads : std::max(1, cores / options.workers);
@@ -240,9 +289,22 @@ int runCluster(ClusterOptions options) {
         address, options.workers, threads, root,
         temporary && !options.keep ? "; the state and caches are removed, --keep keeps them" : "");
     // Restarts a worker that dies (a crash, the OOM killer, a stray kill) and says so.
+    // With no worker left a job never ends and `--render` waited for ever: stop the farm, exit 1.
     std::thread watchdog([&] {
         while (!stopped.load()) {
+            if (!restartCoordinator()) {
+                shutdown();
+                std::_Exit(kExitError);
+            }
             workers->restartDead();
+            if (workers->allGivenUp() && !stopped.load()) {
+                std::cerr << absl::StrFormat(
+                    "cluster: error: no worker is left (each one died too often to be started "
+                    "again; see their logs in %s); stopping the farm\n",
+                    root);
+                shutdown();
+                std::_Exit(kExitError);
+            }
             std::this_thread::sleep_for(std::chrono::milliseconds(200));
         }
     });
@@ -295,7 +357,8 @@ Command addClusterCommand(CLI::App& app) {
                                        "Run a one-machine farm (a coordinator and N workers on "
                                        "loopback); optionally render through it.");
     sub->add_option("--workers", options->workers, "Number of workers")->check(CLI::Range(1, 256));
-    sub->add_option("--threads", options->threads, "Threads per worker (default: cores / workers)");
+    sub->add_option("--threads", options->threads, "Threads per worker (default: cores / workers)")
+        ->check(CLI::Range(0, 1024));
     sub->add_option("--state-dir", options->stateDir,
                     "Keep state, tokens and logs here (default: a temporary directory)");
     sub->add_flag("--keep", options->keep, "Keep the temporary directory on exit");

@@ -2,6 +2,8 @@
 // and returns the function that runs it, giving the process exit code.
 #pragma once
 
+#include "common/farm/finite_option.h"
+
 #include <CLI/CLI.hpp>
 
 #include <charconv>
@@ -49,14 +51,7 @@ inline const CLI::Validator kSeed(
     "SEED");
 
 // Checks a real number: NaN and infinities are refused.
-inline const CLI::Validator kFinite(
-    [](std::string& value) -> std::string {
-        double number = 0.0;
-        if (!CLI::detail::lexical_cast(value, number) || !std::isfinite(number))
-            return "must be a finite number, got " + value;
-        return "";
-    },
-    "FINITE");
+using farm::kFinite;
 
 Command addRenderCommand(CLI::App& app);
 // The render farm client (cli/farm_commands.cpp) and the one-machine farm

@@ -1,5 +1,6 @@
 #include "cli/farm_client.h"
 
+#include "cli/commands.h"
 #include "cli/progress.h"
 #include "common/core/error.h"
 #include "common/core/image.h"
@@ -68,7 +69,7 @@ void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options) {
                     "call outlasts its time limit, and never creates a second job; retry and "
                     "delete with their request id, and never act twice)")
         ->capture_default_str()
-        ->check(CLI::Range(0.0, 86400.0));
+        ->check(kFinite & CLI::Range(0.0, 86400.0));
     sub->add_flag("--json", options.json, "Machine-readable JSON on stdout");
 }
 

@@ -308,7 +308,9 @@ Command addRenderCommand(CLI::App& app) {
                     "The most memory the scene's meshes may take, and the film, e.g. 8GB "
                     "(default: the physical memory); a scene or image beyond it is refused "
                     "before it is built")
-        ->transform(CLI::AsSizeValue(false));
+        ->transform(CLI::AsSizeValue(false))
+        // transform() puts a validator first: the sign is checked before the size is read.
+        ->transform(farm::kNotNegativeSize);
     return {sub, [options] { return runRender(*options); }};
 }
 

@@ -73,7 +73,7 @@ uint64_t Coordinator::jobMemoryBytes(int width, int height, uint64_t unitCount,
 Coordinator::Coordinator(CoordinatorOptions options, std::shared_ptr<const Clock> clock)
     : m_options(std::move(options)),
       m_clock(std::move(clock)),
-      m_lock(m_options.stateDirectory),
+      m_lock(m_options.stateDirectory, {"state directory", "coordinator", "--state-dir"}),
       m_store(checkedDatabasePath(m_options.stateDirectory)),
       m_blobs(m_options.stateDirectory + "/blobs", m_options.maxBlobBytes) {
     if (m_options.maxMemoryBytes == 0) m_options.maxMemoryBytes = physicalMemoryBytes() / 2;

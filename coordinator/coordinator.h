@@ -20,6 +20,7 @@
 #include "alphorn/v1/client_service.pb.h"
 #include "alphorn/v1/worker_service.pb.h"
 #include "common/core/error.h"
+#include "common/farm/directory_lock.h"
 #include "common/farm/job_grid.h"
 #include "common/render/film.h"
 #include "coordinator/blob_store.h"
@@ -30,7 +31,6 @@
 #include "coordinator/job_film.h"
 #include "coordinator/job_store.h"
 #include "coordinator/lease_scheduler.h"
-#include "coordinator/state_lock.h"
 #include "coordinator/worker_registry.h"
 
 #include <chrono>
@@ -289,7 +289,7 @@ class Coordinator {
 
     CoordinatorOptions m_options;
     std::shared_ptr<const Clock> m_clock;
-    StateDirectoryLock m_lock;
+    farm::DirectoryLock m_lock;
     JobStore m_store;
     BlobStore m_blobs;
     int m_jobsUnsavedAtStop = 0;

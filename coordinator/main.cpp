@@ -2,6 +2,7 @@
 // units to workers, merges their results exactly and checkpoints every job, so that a restart
 // on the same --state-dir resumes everything. See docs/operations.md.
 #include "common/farm/files.h"
+#include "common/farm/finite_option.h"
 #include "common/farm/http_server.h"
 #include "common/farm/metrics.h"
 #include "common/farm/rpc.h"
@@ -59,10 +60,10 @@ int main(int argc, char** argv) {
     app.add_option("--checkpoint-interval", options.checkpointIntervalSeconds,
                    "Seconds between film checkpoints (longer when writing a round of them "
                    "takes over 5% of the time)")
-        ->check(CLI::Range(0.05, 3600.0));
+        ->check(farm::kFinite & CLI::Range(0.05, 3600.0));
     app.add_option("--lease-seconds", options.leaseSeconds,
                    "Seconds a unit lease lasts without a heartbeat")
-        ->check(CLI::Range(0.2, 86400.0));
+        ->check(farm::kFinite & CLI::Range(0.2, 86400.0));
     app.add_option("--max-attempts", options.maxAttempts,
                    "Failed attempts after which a unit fails its job")
         ->check(CLI::Range(1, 1000));
@@ -77,11 +78,13 @@ int main(int argc, char** argv) {
                    "record, images and bundle are removed (with blobs no remaining job uses); 0 "
                    "keeps them forever")
         ->capture_default_str()
-        ->check(CLI::Range(0.0, 1e6));
+        ->check(farm::kFinite & CLI::Range(0.0, 1e6));
     app.add_option("--max-memory", options.maxMemoryBytes,
                    "Memory the running jobs' films and unit tables may take together, e.g. 8GB "
                    "(default: half the physical memory); a job that would exceed it is refused")
-        ->transform(CLI::AsSizeValue(false));
+        ->transform(CLI::AsSizeValue(false))
+        // transform() puts a validator first: the sign is checked before the size is read.
+        ->transform(farm::kNotNegativeSize);
     app.add_option("--port-file", portFile, "Write the bound port to this file once listening");
     std::string httpListen, httpPortFile, metricsTokenFile;
     bool anonymousMetrics = false;

@@ -1,5 +1,6 @@
 // alphorn-worker: renders units leased from an alphorn-coordinator. See docs/operations.md.
 #include "common/farm/files.h"
+#include "common/farm/finite_option.h"
 #include "common/farm/http_server.h"
 #include "common/farm/log.h"
 #include "common/farm/metrics.h"
@@ -32,15 +33,16 @@ int main(int argc, char** argv) {
     app.add_option("--tls-ca", options.tlsCaPath,
                    "PEM CA certificate: connect with TLS, verifying the coordinator");
     app.add_option("--cache-gib", cacheGiB, "Blob cache budget in GiB")
-        ->check(CLI::Range(0.0, 1e6));
+        ->check(farm::kFinite & CLI::Range(0.0, 1e6));
     app.add_option("--name", options.name, "Name shown by `alphorn workers` (default: host:pid)");
     app.add_option("--drain-seconds", options.drainSeconds,
-                   "On SIGTERM, how long to keep trying to deliver");
+                   "On SIGTERM, how long to keep trying to deliver")
+        ->check(farm::kFinite & CLI::Range(0.0, 1e6));
     double unloadAfterSeconds = 30.0;
     app.add_option("--unload-after", unloadAfterSeconds,
                    "How long an idle worker keeps the last job's scene and photon maps loaded, in "
                    "seconds; then it releases them and gives the memory back")
-        ->check(CLI::Range(0.0, 1e6));
+        ->check(farm::kFinite & CLI::Range(0.0, 1e6));
     std::string httpListen, httpPortFile, httpTlsCert, httpTlsKey, metricsTokenFile;
     bool anonymousMetrics = false;
     CLI::Option* http = app.add_option(

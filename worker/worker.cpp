@@ -120,6 +120,7 @@ std::string jobIdentity(const v1::JobDescription& job) {
 
 Worker::Worker(WorkerOptions options)
     : m_options(std::move(options)),
+      m_cacheLock(m_options.cacheDirectory, {"cache directory", "worker", "--cache-dir"}),
       m_channel(farm::makeChannel(m_options.coordinator, m_options.tlsCaPath)),
       m_stub(v1::WorkerService::NewStub(m_channel)),
       m_cache((fs::path(m_options.cacheDirectory) / "blobs").string(), m_options.cacheBytes),

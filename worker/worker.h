@@ -10,6 +10,7 @@
 
 #include "alphorn/v1/worker_service.grpc.pb.h"
 #include "common/farm/bundle.h"
+#include "common/farm/directory_lock.h"
 #include "common/farm/retry_policy.h"
 #include "common/render/unit.h"
 #include "worker/blob_cache.h"
@@ -111,6 +112,8 @@ class Worker {
     std::unique_ptr<grpc::ClientContext> context(std::chrono::milliseconds timeout) const;
 
     WorkerOptions m_options;
+    // Taken before the cache is touched: a second worker on the same cache directory is refused.
+    farm::DirectoryLock m_cacheLock;
     std::shared_ptr<grpc::Channel> m_channel;
     std::unique_ptr<v1::WorkerService::Stub> m_stub;
     BlobCache m_cache;

@@ -9,6 +9,7 @@
 #include <netdb.h>
 #include <openssl/crypto.h>
 #include <openssl/err.h>
+#include <openssl/pem.h>
 #include <openssl/rand.h>
 #include <openssl/ssl.h>
 #include <poll.h>
@@ -86,6 +87,58 @@ void addBearer(grpc::ClientContext& context, const std::string& token) {
     context.AddMetadata("authorization", "Bearer " + token);
 }
 
+namespace {
+
+// The X.509 certificates in PEM text, as OpenSSL reads them.
+int countPemCertificates(const std::string& pem) {
+    BIO* bio = BIO_new_mem_buf(pem.data(), static_cast<int>(pem.size()));
+    if (!bio) return 0;
+    int count = 0;
+    while (X509* certificate = PEM_read_bio_X509(bio, nullptr, nullptr, nullptr)) {
+        X509_free(certificate);
+        ++count;
+    }
+    BIO_free(bio);
+    ERR_clear_error();  // the read that ends the loop leaves an error queued
+    return count;
+}
+
+// Refuses a certificate or key file gRPC cannot use, and a key that is not the certificate's:
+// gRPC gave only "cannot listen on ADDRESS" for them, which blames the address.
+void checkServerKeyPair(const std::string& certPath, const std::string& certPem,
+                        const std::string& keyPath, const std::string& keyPem) {
+    if (countPemCertificates(certPem) == 0)
+        fail(
+            "%s: holds no PEM certificate (--tls-cert names the coordinator's certificate "
+            "chain, \"-----BEGIN CERTIFICATE-----\" ...)",
+            certPath);
+    BIO* keyBio = BIO_new_mem_buf(keyPem.data(), static_cast<int>(keyPem.size()));
+    // No passphrase: OpenSSL's default callback would ask for one on the terminal.
+    pem_password_cb* noPassphrase = [](char*, int, int, void*) { return 0; };
+    EVP_PKEY* key =
+        keyBio ? PEM_read_bio_PrivateKey(keyBio, nullptr, noPassphrase, nullptr) : nullptr;
+    BIO_free(keyBio);
+    BIO* certBio = BIO_new_mem_buf(certPem.data(), static_cast<int>(certPem.size()));
+    X509* certificate = certBio ? PEM_read_bio_X509(certBio, nullptr, nullptr, nullptr) : nullptr;
+    BIO_free(certBio);
+    const bool matches = key && certificate && X509_check_private_key(certificate, key) == 1;
+    X509_free(certificate);
+    EVP_PKEY_free(key);
+    ERR_clear_error();
+    if (!key)
+        fail(
+            "%s: holds no unencrypted PEM private key (--tls-key names the key of --tls-cert, "
+            "\"-----BEGIN PRIVATE KEY-----\" ...)",
+            keyPath);
+    if (!matches)
+        fail(
+            "%s: the private key does not belong to the first certificate of %s (--tls-key and "
+            "--tls-cert must be a pair)",
+            keyPath, certPath);
+}
+
+}  // namespace
+
 std::shared_ptr<grpc::Channel> makeChannel(const std::string& address,
                                            const std::string& caCertPath) {
     grpc::ChannelArguments arguments;
@@ -109,6 +162,14 @@ std::shared_ptr<grpc::Channel> makeChannel(const std::string& address,
     } else {
         grpc::SslCredentialsOptions options;
         options.pem_root_certs = readFile(caCertPath);
+        // gRPC takes a file that holds no certificate (a key, a wrong file) and fails every
+        // connection attempt with a log line: a worker retried for ever, a client reported an
+        // unreachable coordinator. Say what is wrong instead, before connecting.
+        if (countPemCertificates(options.pem_root_certs) == 0)
+            fail(
+                "%s: holds no PEM certificate (--tls-ca names the CA certificate that signed the "
+                "coordinator's, \"-----BEGIN CERTIFICATE-----\" ...)",
+                caCertPath);
         credentials = grpc::SslCredentials(options);
     }
     return grpc::CreateCustomChannel(address, credentials, arguments);
@@ -268,6 +329,8 @@ std::shared_ptr<grpc::ServerCredentials> makeServerCredentials(const std::string
     if (certPath.empty()) return grpc::InsecureServerCredentials();
     grpc::SslServerCredentialsOptions options;
     options.pem_key_cert_pairs.push_back({readFile(keyPath), readFile(certPath)});
+    checkServerKeyPair(certPath, options.pem_key_cert_pairs[0].cert_chain, keyPath,
+                       options.pem_key_cert_pairs[0].private_key);
     return grpc::SslServerCredentials(options);
 }
 

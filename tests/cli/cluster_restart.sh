@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# `alphorn cluster` reports a worker that dies and starts it again (no <defunct> left behind),
-# and on Ctrl-C keeps the logs in the folder it named while removing the state and caches.
+# `alphorn cluster` reports a worker or its coordinator that dies and starts it again (no
+# <defunct> left behind), and on Ctrl-C keeps the logs in the folder it named while removing the
+# state and caches.
 # Usage: cluster_restart.sh ALPHORN
 set -u
 alphorn=$1
@@ -33,6 +34,22 @@ kill -0 "$new" 2>/dev/null || fail "the restarted worker (pid $new) is not runni
 tr '\0' ' ' <"/proc/$new/cmdline" | grep -q -- "--name local-1" || fail "pid $new is not worker local-1"
 if [ -e "/proc/$victim" ]; then fail "the killed worker $victim was not reaped (defunct)"; fi
 echo "ok   killed worker local-1 (pid $victim): reported and restarted as pid $new"
+
+# A coordinator that dies is started again on the same address (before, the cluster went on
+# "running" without one); the job below runs on the restarted one.
+coordinator=""
+for pid in $(cat /proc/"$cluster"/task/*/children); do
+  tr '\0' ' ' <"/proc/$pid/cmdline" | grep -q -- "alphorn-coordinator" && coordinator=$pid
+done
+[ -n "$coordinator" ] || fail "no coordinator among the cluster's children"
+kill -9 "$coordinator"
+for _ in $(seq 100); do grep -q "coordinator (pid $coordinator) was killed" "$out/cluster.err" && break; sleep 0.1; done
+grep -q "cluster: coordinator (pid $coordinator) was killed by signal 9 (Killed); restarted it as pid [0-9]* on 127.0.0.1:" "$out/cluster.err" ||
+  fail "the dead coordinator was not reported and restarted"
+restarted=$(sed -n 's/.*coordinator (pid [0-9]*) .*restarted it as pid \([0-9]*\).*/\1/p' "$out/cluster.err" | tail -1)
+kill -0 "$restarted" 2>/dev/null || fail "the restarted coordinator (pid $restarted) is not running"
+if [ -e "/proc/$coordinator" ]; then fail "the killed coordinator $coordinator was not reaped (defunct)"; fi
+echo "ok   killed the coordinator (pid $coordinator): reported and restarted as pid $restarted"
 
 # Farm progress counts merged units (plain lines off a terminal), and `workers` has a header.
 export $(grep ALPHORN_ "$out/cluster.out" | xargs)

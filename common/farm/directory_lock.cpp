@@ -1,4 +1,4 @@
-#include "coordinator/state_lock.h"
+#include "common/farm/directory_lock.h"
 
 #include "common/core/error.h"
 
@@ -13,7 +13,7 @@
 #include <ctime>
 #include <filesystem>
 
-namespace alphorn::coordinator {
+namespace alphorn::farm {
 
 namespace {
 
@@ -27,43 +27,43 @@ std::string describeHolder(const std::string& lockPath) {
     return n > 0 ? std::string(absl::StripAsciiWhitespace(holder)) : std::string("unknown");
 }
 
-[[noreturn]] void refuseInUse(const std::string& directory, const std::string& lockPath) {
-    fail(
-        "the state directory %s is in use by another coordinator (%s); stop that one first or "
-        "give this one another --state-dir",
-        directory, describeHolder(lockPath));
+[[noreturn]] void refuseInUse(const std::string& directory, const std::string& lockPath,
+                              const DirectoryLockRole& role) {
+    fail("the %s %s is in use by another %s (%s); stop that one first or give this one another %s",
+         role.directoryKind, directory, role.daemon, describeHolder(lockPath), role.option);
 }
 
 }  // namespace
 
-StateDirectoryLock::StateDirectoryLock(const std::string& directory) {
+DirectoryLock::DirectoryLock(const std::string& directory, DirectoryLockRole role) {
     std::filesystem::create_directories(directory);
     const std::string path = directory + "/lock";
     m_directoryFd = ::open(directory.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
     if (m_directoryFd < 0)
-        fail("%s: cannot open the state directory to lock it: %s", directory, std::strerror(errno));
+        fail("%s: cannot open the %s to lock it: %s", directory, role.directoryKind,
+             std::strerror(errno));
     if (::flock(m_directoryFd, LOCK_EX | LOCK_NB) != 0) {
         const int error = errno;
         ::close(m_directoryFd);
         m_directoryFd = -1;
         if (error != EWOULDBLOCK)
-            fail("%s: cannot lock the state directory: %s", directory, std::strerror(error));
-        refuseInUse(directory, path);
+            fail("%s: cannot lock the %s: %s", directory, role.directoryKind, std::strerror(error));
+        refuseInUse(directory, path, role);
     }
     // The directory is ours; a coordinator of an earlier version locks only the file.
     m_fileFd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
     if (m_fileFd < 0) {
         const int error = errno;
         ::close(m_directoryFd);
-        fail("%s: cannot open the state directory's lock: %s", path, std::strerror(error));
+        fail("%s: cannot open the %s's lock: %s", path, role.directoryKind, std::strerror(error));
     }
     if (::flock(m_fileFd, LOCK_EX | LOCK_NB) != 0) {
         const int error = errno;
         ::close(m_fileFd);
         ::close(m_directoryFd);
         if (error != EWOULDBLOCK)
-            fail("%s: cannot lock the state directory: %s", path, std::strerror(error));
-        refuseInUse(directory, path);
+            fail("%s: cannot lock the %s: %s", path, role.directoryKind, std::strerror(error));
+        refuseInUse(directory, path, role);
     }
     // Who holds it, for the message above (informational: the flocks are what exclude).
     char host[128] = {};
@@ -78,9 +78,9 @@ StateDirectoryLock::StateDirectoryLock(const std::string& directory) {
     }
 }
 
-StateDirectoryLock::~StateDirectoryLock() {
+DirectoryLock::~DirectoryLock() {
     if (m_fileFd >= 0) ::close(m_fileFd);
     if (m_directoryFd >= 0) ::close(m_directoryFd);
 }
 
-}  // namespace alphorn::coordinator
+}  // namespace alphorn::farm

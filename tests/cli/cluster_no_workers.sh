@@ -5,28 +5,17 @@
 # Usage: cluster_no_workers.sh ALPHORN
 set -u
 alphorn=$1
-out=$(mktemp -d)
-cluster=""
-trap '[ -n "$cluster" ] && kill -9 "$cluster" 2>/dev/null; [ -n "$cluster" ] && wait "$cluster" 2>/dev/null; rm -rf "$out" "${root:-/nonexistent}"' EXIT
-fail() { echo "FAIL: $*"; cat "$out/cluster.err"; exit 1; }
+source "$(dirname "$0")/cluster_lib.sh"
 
-"$alphorn" cluster --workers 1 --threads 1 >"$out/cluster.out" 2>"$out/cluster.err" &
-cluster=$!
-for _ in $(seq 300); do grep -q "running; Ctrl-C stops it" "$out/cluster.err" && break; sleep 0.1; done
-grep -q "running; Ctrl-C stops it" "$out/cluster.err" || fail "the cluster did not start"
-root=$(sed -n 's/.*; logs in \([^ ]*\) (kept on exit.*/\1/p' "$out/cluster.err")
-coordinator=""
-for pid in $(cat /proc/"$cluster"/task/*/children); do
-  tr '\0' ' ' <"/proc/$pid/cmdline" | grep -q -- "alphorn-coordinator" && coordinator=$pid
-done
+start_cluster --workers 1 --threads 1
+coordinator=$(cluster_child alphorn-coordinator)
 [ -n "$coordinator" ] || fail "no coordinator among the cluster's children"
 
 # Kill the worker each time the cluster starts it again, until it gives up (at most 60 s).
 deadline=$((SECONDS + 60))
 while kill -0 "$cluster" 2>/dev/null && grep -q "running" "$out/cluster.err" && ((SECONDS < deadline)); do
-  for pid in $(cat /proc/"$cluster"/task/*/children 2>/dev/null); do
-    tr '\0' ' ' <"/proc/$pid/cmdline" 2>/dev/null | grep -q -- "--name local-0" && kill -9 "$pid" 2>/dev/null
-  done
+  worker=$(cluster_child "--name local-0")
+  [ -n "$worker" ] && kill -9 "$worker" 2>/dev/null
   grep -q "not restarting it" "$out/cluster.err" && break
   sleep 0.05
 done

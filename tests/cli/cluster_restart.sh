@@ -5,25 +5,14 @@
 # Usage: cluster_restart.sh ALPHORN
 set -u
 alphorn=$1
-out=$(mktemp -d)
-cluster=""
-trap '[ -n "$cluster" ] && kill -9 "$cluster" 2>/dev/null; [ -n "$cluster" ] && wait "$cluster" 2>/dev/null; rm -rf "$out" "${root:-/nonexistent}"' EXIT
-fail() { echo "FAIL: $*"; cat "$out/cluster.err"; exit 1; }
+source "$(dirname "$0")/cluster_lib.sh"
 
 set -m  # its own process group, and SIGINT not ignored
-"$alphorn" cluster --workers 2 --threads 1 >"$out/cluster.out" 2>"$out/cluster.err" &
-cluster=$!
+start_cluster --workers 2 --threads 1
 set +m
-for _ in $(seq 300); do grep -q "running; Ctrl-C stops it" "$out/cluster.err" && break; sleep 0.1; done
-grep -q "running; Ctrl-C stops it" "$out/cluster.err" || fail "the cluster did not start"
-root=$(sed -n 's/.*; logs in \([^ ]*\) (kept on exit.*/\1/p' "$out/cluster.err")
-[ -d "$root" ] || fail "no log folder named"
 
 # The cluster's children: the coordinator and two workers; kill one worker.
-victim=""
-for pid in $(cat /proc/"$cluster"/task/*/children); do
-  if tr '\0' ' ' <"/proc/$pid/cmdline" | grep -q -- "--name local-1"; then victim=$pid; fi
-done
+victim=$(cluster_child "--name local-1")
 [ -n "$victim" ] || fail "no worker local-1 among the cluster's children"
 kill -9 "$victim"
 for _ in $(seq 100); do grep -q "worker local-1 (pid $victim) was killed by signal 9" "$out/cluster.err" && break; sleep 0.1; done
@@ -37,10 +26,7 @@ echo "ok   killed worker local-1 (pid $victim): reported and restarted as pid $n
 
 # A coordinator that dies is started again on the same address (before, the cluster went on
 # "running" without one); the job below runs on the restarted one.
-coordinator=""
-for pid in $(cat /proc/"$cluster"/task/*/children); do
-  tr '\0' ' ' <"/proc/$pid/cmdline" | grep -q -- "alphorn-coordinator" && coordinator=$pid
-done
+coordinator=$(cluster_child alphorn-coordinator)
 [ -n "$coordinator" ] || fail "no coordinator among the cluster's children"
 kill -9 "$coordinator"
 for _ in $(seq 100); do grep -q "coordinator (pid $coordinator) was killed" "$out/cluster.err" && break; sleep 0.1; done

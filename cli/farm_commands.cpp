@@ -9,6 +9,7 @@
 #include "common/farm/convert.h"
 #include "common/farm/rpc.h"
 
+#include <absl/strings/numbers.h>
 #include <absl/strings/str_format.h>
 
 #include <ctime>
@@ -18,6 +19,19 @@
 namespace alphorn::cli {
 
 namespace {
+
+// Job and worker ids are whole numbers from 1. Read straight into an unsigned id, "-1" became
+// 2^64 - 1 and the coordinator's answer was "no job 18446744073709551615", so the text is
+// checked first.
+const CLI::Validator kId(
+    [](std::string& value) -> std::string {
+        uint64_t id = 0;
+        if (value.empty() || value.find_first_not_of("0123456789") != std::string::npos ||
+            !absl::SimpleAtoi(value, &id) || id == 0)
+            return "an id is a whole number from 1 to 18446744073709551615, got " + value;
+        return "";
+    },
+    "ID");
 
 int exitCodeFor(const v1::JobStatus& status) {
     return status.state() == v1::JOB_STATE_DONE ? kExitOk : kExitJobFailed;
@@ -204,7 +218,7 @@ Command addWatchCommand(CLI::App& app) {
     auto jobId = std::make_shared<uint64_t>(0);
     CLI::App* sub =
         app.add_subcommand("watch", "Follow a farm job with a progress bar until it ends.");
-    sub->add_option("job", *jobId, "Job id")->required();
+    sub->add_option("job", *jobId, "Job id")->check(kId)->required();
     addConnectionOptions(sub, *connection);
     return {sub, [=] {
                 FarmClient client(*connection);
@@ -221,7 +235,7 @@ Command addStatusCommand(CLI::App& app) {
     auto connection = std::make_shared<FarmConnectionOptions>();
     auto jobId = std::make_shared<uint64_t>(0);
     CLI::App* sub = app.add_subcommand("status", "Show farm jobs (all, or one).");
-    sub->add_option("job", *jobId, "Job id (default: every job)");
+    sub->add_option("job", *jobId, "Job id (default: every job)")->check(kId);
     addConnectionOptions(sub, *connection);
     return {sub, [=] {
                 FarmClient client(*connection);
@@ -246,7 +260,7 @@ Command addCancelCommand(CLI::App& app) {
     auto connection = std::make_shared<FarmConnectionOptions>();
     auto jobId = std::make_shared<uint64_t>(0);
     CLI::App* sub = app.add_subcommand("cancel", "Cancel a farm job.");
-    sub->add_option("job", *jobId, "Job id")->required();
+    sub->add_option("job", *jobId, "Job id")->check(kId)->required();
     addConnectionOptions(sub, *connection);
     return {sub, [=] {
                 FarmClient client(*connection);
@@ -272,7 +286,7 @@ Command addFetchCommand(CLI::App& app) {
     auto output = std::make_shared<std::string>();
     auto preview = std::make_shared<bool>(false);
     CLI::App* sub = app.add_subcommand("fetch", "Download a farm job's image (EXR and PNG).");
-    sub->add_option("job", *jobId, "Job id")->required();
+    sub->add_option("job", *jobId, "Job id")->check(kId)->required();
     sub->add_option("-o,--output", *output, "Output EXR path; a PNG is written beside it")
         ->required()
         ->check(kExrOutputPath);
@@ -330,7 +344,7 @@ Command addJobChangeCommand(CLI::App& app, const char* name, const char* descrip
     auto connection = std::make_shared<FarmConnectionOptions>();
     auto jobId = std::make_shared<uint64_t>(0);
     CLI::App* sub = app.add_subcommand(name, description);
-    sub->add_option("job", *jobId, "Job id")->required();
+    sub->add_option("job", *jobId, "Job id")->check(kId)->required();
     if (addArguments) addArguments(sub);
     addConnectionOptions(sub, *connection);
     return {sub, [=] {
@@ -475,7 +489,7 @@ std::vector<Command> addControlCommands(CLI::App& app) {
             "Removes the job's record, event log, images and scene bundle, and the uploaded "
             "files no other job uses (unless a client asked for them since the job was "
             "submitted). A running job is refused unless --cancel.");
-        sub->add_option("job", *jobId, "Job id")->required();
+        sub->add_option("job", *jobId, "Job id")->check(kId)->required();
         sub->add_flag("--cancel", *cancel, "Cancel the job first if it is still running");
         addConnectionOptions(sub, *connection);
         commands.push_back(
@@ -513,7 +527,7 @@ std::vector<Command> addControlCommands(CLI::App& app) {
             "finished, resumed-after-restart. The coordinator keeps the first 50 and the most "
             "recent events of each job, 1000 in all, and says how many it left out. --json "
             "prints the log as one document, or with --follow one event per line.");
-        sub->add_option("job", *jobId, "Job id")->required();
+        sub->add_option("job", *jobId, "Job id")->check(kId)->required();
         sub->add_flag("-f,--follow", *follow,
                       "Keep printing new events until the job ends (asks once a second)");
         addConnectionOptions(sub, *connection);
@@ -575,7 +589,9 @@ std::vector<Command> addControlCommands(CLI::App& app) {
                 "The worker stays connected and idle until `alphorn undrain`; `alphorn workers` "
                 "shows it draining. To stop a worker for good, send it SIGTERM: it finishes its "
                 "unit and exits.");
-        sub->add_option("worker", *workerId, "Worker id (from `alphorn workers`)")->required();
+        sub->add_option("worker", *workerId, "Worker id (from `alphorn workers`)")
+            ->check(kId)
+            ->required();
         addConnectionOptions(sub, *connection);
         commands.push_back(
             {sub, [=] {

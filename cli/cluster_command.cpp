@@ -317,12 +317,13 @@ int runCluster(ClusterOptions options) {
     }};
 
     if (!options.submit.scene.empty()) {
-        // Stop the farm if the user interrupts the render.
+        // Stop the farm if the user interrupts the render: 130 for Ctrl-C (SIGINT), 143 for
+        // SIGTERM, 128 + the signal as shells report a process the signal ended.
         std::thread([&] {
             int signal = 0;
             sigwait(&signals, &signal);
             shutdown();
-            std::_Exit(kExitInterrupted);
+            std::_Exit(signal == SIGINT ? kExitInterrupted : 128 + signal);
         }).detach();
         int code = kExitError;
         try {

@@ -7,7 +7,6 @@
 #include <CLI/CLI.hpp>
 
 #include <charconv>
-#include <cmath>
 
 #include <functional>
 #include <utility>

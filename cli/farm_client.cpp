@@ -1,6 +1,5 @@
 #include "cli/farm_client.h"
 
-#include "cli/commands.h"
 #include "cli/progress.h"
 #include "common/core/error.h"
 #include "common/core/image.h"

@@ -11,31 +11,32 @@ set -m  # its own process group, and SIGINT not ignored
 start_cluster --workers 2 --threads 1
 set +m
 
+# kill_and_expect_restart WHO PATTERN SUFFIX: kills the cluster's child whose command line has
+# PATTERN with signal 9, expects the cluster to say "WHO (pid OLD) was killed by signal 9
+# (Killed); restarted it as pid NEW" followed by SUFFIX, to run NEW and to have reaped OLD. Sets
+# $victim (OLD) and $restarted (NEW).
+kill_and_expect_restart() {
+  local who=$1 pattern=$2 suffix=$3
+  victim=$(cluster_child "$pattern")
+  [ -n "$victim" ] || fail "no $who among the cluster's children"
+  kill -9 "$victim"
+  for _ in $(seq 100); do grep -q "$who (pid $victim) was killed by signal 9" "$out/cluster.err" && break; sleep 0.1; done
+  grep -q "$who (pid $victim) was killed by signal 9 (Killed); restarted it as pid [0-9]*$suffix" "$out/cluster.err" ||
+    fail "the dead $who was not reported and restarted"
+  restarted=$(sed -n "s/.*$who (pid [0-9]*) .*restarted it as pid \([0-9]*\).*/\1/p" "$out/cluster.err" | tail -1)
+  kill -0 "$restarted" 2>/dev/null || fail "the restarted $who (pid $restarted) is not running"
+  if [ -e "/proc/$victim" ]; then fail "the killed $who $victim was not reaped (defunct)"; fi
+}
+
 # The cluster's children: the coordinator and two workers; kill one worker.
-victim=$(cluster_child "--name local-1")
-[ -n "$victim" ] || fail "no worker local-1 among the cluster's children"
-kill -9 "$victim"
-for _ in $(seq 100); do grep -q "worker local-1 (pid $victim) was killed by signal 9" "$out/cluster.err" && break; sleep 0.1; done
-grep -q "worker local-1 (pid $victim) was killed by signal 9 (Killed); restarted it as pid [0-9]*" "$out/cluster.err" ||
-  fail "the dead worker was not reported and restarted"
-new=$(sed -n 's/.*restarted it as pid \([0-9]*\).*/\1/p' "$out/cluster.err" | tail -1)
-kill -0 "$new" 2>/dev/null || fail "the restarted worker (pid $new) is not running"
-tr '\0' ' ' <"/proc/$new/cmdline" | grep -q -- "--name local-1" || fail "pid $new is not worker local-1"
-if [ -e "/proc/$victim" ]; then fail "the killed worker $victim was not reaped (defunct)"; fi
-echo "ok   killed worker local-1 (pid $victim): reported and restarted as pid $new"
+kill_and_expect_restart "worker local-1" "--name local-1" ""
+tr '\0' ' ' <"/proc/$restarted/cmdline" | grep -q -- "--name local-1" || fail "pid $restarted is not worker local-1"
+echo "ok   killed worker local-1 (pid $victim): reported and restarted as pid $restarted"
 
 # A coordinator that dies is started again on the same address (before, the cluster went on
 # "running" without one); the job below runs on the restarted one.
-coordinator=$(cluster_child alphorn-coordinator)
-[ -n "$coordinator" ] || fail "no coordinator among the cluster's children"
-kill -9 "$coordinator"
-for _ in $(seq 100); do grep -q "coordinator (pid $coordinator) was killed" "$out/cluster.err" && break; sleep 0.1; done
-grep -q "cluster: coordinator (pid $coordinator) was killed by signal 9 (Killed); restarted it as pid [0-9]* on 127.0.0.1:" "$out/cluster.err" ||
-  fail "the dead coordinator was not reported and restarted"
-restarted=$(sed -n 's/.*coordinator (pid [0-9]*) .*restarted it as pid \([0-9]*\).*/\1/p' "$out/cluster.err" | tail -1)
-kill -0 "$restarted" 2>/dev/null || fail "the restarted coordinator (pid $restarted) is not running"
-if [ -e "/proc/$coordinator" ]; then fail "the killed coordinator $coordinator was not reaped (defunct)"; fi
-echo "ok   killed the coordinator (pid $coordinator): reported and restarted as pid $restarted"
+kill_and_expect_restart "cluster: coordinator" alphorn-coordinator " on 127.0.0.1:"
+echo "ok   killed the coordinator (pid $victim): reported and restarted as pid $restarted"
 
 # Farm progress counts merged units (plain lines off a terminal), and `workers` has a header.
 export $(grep ALPHORN_ "$out/cluster.out" | xargs)

@@ -2,6 +2,7 @@
 
 #include "common/farm/bundle.h"
 #include "common/farm/convert.h"
+#include "common/farm/files.h"
 #include "common/farm/job_scene.h"
 #include "common/farm/rpc.h"
 #include "common/farm/text_field.h"
@@ -12,6 +13,7 @@
 #include "coordinator/farm_error.h"
 
 #include <absl/strings/ascii.h>
+#include <absl/strings/str_format.h>
 #include <absl/strings/str_replace.h>
 
 #include <algorithm>
@@ -53,6 +55,13 @@ void checkClientChosenId(const std::string& id, const char* name) {
                         absl::StrFormat("the %s must be at most %u characters of 0-9, A-Z, a-z, "
                                         "_ and - (got %u bytes)",
                                         name, kMaxIdChars, id.size()));
+}
+
+// Removes a refused job's staging directory. On a failing disk that may fail too: the next start
+// empties the staging area, and the refusal is what the client must hear.
+void removeStaging(const std::string& directory) {
+    std::error_code ignored;
+    fs::remove_all(directory, ignored);
 }
 
 }  // namespace
@@ -118,10 +127,19 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
         scene = farm::loadJobScene(bundleDirectory, scenePath, settings.integrator_override(),
                                    {limits.maxGeometryBytes, "--max-memory"}, SceneUse::Check);
     } catch (const Error& e) {
-        fs::remove_all(admitted.stagingDirectory);
-        const bool tooLarge = dynamic_cast<const ResourceLimitError*>(&e) != nullptr;
-        throw FarmError(tooLarge ? Kind::ResourceExhausted : Kind::InvalidArgument,
-                        absl::StrReplaceAll(e.what(), {{bundleDirectory + "/", ""}}));
+        removeStaging(admitted.stagingDirectory);
+        const std::string message = absl::StrReplaceAll(e.what(), {{bundleDirectory + "/", ""}});
+        if (dynamic_cast<const ResourceLimitError*>(&e))
+            throw FarmError(Kind::ResourceExhausted, message);
+        // The coordinator's own disk failing (full, read-only, I/O errors) is not the scene's
+        // fault, and the client must not be told it is.
+        const std::string diskProblem = farm::directoryWriteProblem(stagingParent);
+        if (!diskProblem.empty())
+            throw FarmError(Kind::ResourceExhausted,
+                            absl::StrFormat("the coordinator's state directory cannot be written "
+                                            "(%s), so the job cannot be staged: %s",
+                                            diskProblem, message));
+        throw FarmError(Kind::InvalidArgument, message);
     }
     const Vector2i size = scene->camera()->outputSize();
     if (settings.has_target_error()) {
@@ -133,12 +151,12 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
         else if (settings.passes() == 0)
             problem = "a target error needs a cap: give the most passes (--max-passes)";
         if (!problem.empty()) {
-            fs::remove_all(admitted.stagingDirectory);
+            removeStaging(admitted.stagingDirectory);
             throw FarmError(Kind::InvalidArgument, problem);
         }
     }
     if (settings.adaptive() && !settings.has_target_error()) {
-        fs::remove_all(admitted.stagingDirectory);
+        removeStaging(admitted.stagingDirectory);
         throw FarmError(Kind::InvalidArgument, "adaptive passes need a target error");
     }
     if (settings.passes() == 0)
@@ -170,7 +188,7 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
     admitted.smallerRadius = filmSmallerRadius(*scene);
     scene.reset();
     auto refuse = [&](Kind kind, const std::string& message) {
-        fs::remove_all(admitted.stagingDirectory);
+        removeStaging(admitted.stagingDirectory);
         throw FarmError(kind, message);
     };
     if (uint64_t(size.x()) * uint64_t(size.y()) > limits.maxImagePixels)

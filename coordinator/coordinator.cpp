@@ -259,7 +259,9 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request,
     const std::string& staging = admitted.stagingDirectory;
     const farm::JobGrid& grid = admitted.grid;
     auto refuse = [&](Kind kind, const std::string& message) {
-        fs::remove_all(staging);
+        // On a failing disk the removal may fail too; the next start empties the staging area.
+        std::error_code ignored;
+        fs::remove_all(staging, ignored);
         throw FarmError(kind, message);
     };
     // Loading a large scene can outlast the client's deadline. A job created for a caller that

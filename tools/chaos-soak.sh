@@ -11,7 +11,7 @@ first_seed=${3:-$(($(date +%s) % 1000000))}
 build=${BUILD_DIR:-build}
 export ALPHORN=$PWD/$build/cli/alphorn COORDINATOR=$PWD/$build/coordinator/alphorn-coordinator
 export WORKER=$PWD/$build/worker/alphorn-worker PROBE=$PWD/$build/tests/integration/alphorn_farm_probe
-export SCENES=$PWD/tests/integration/scenes
+export SCENES=$PWD/tests/integration/scenes IO_FAULT=$PWD/$build/tests/support/libalphorn_io_fault.so
 for ((round = 0; round < rounds; round++)); do
     seed=$((first_seed + round))
     log=$(mktemp /tmp/alphorn-chaos-soak-XXXXXX.log)

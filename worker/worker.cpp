@@ -6,6 +6,7 @@
 #include "common/farm/chunks.h"
 #include "common/farm/convert.h"
 #include "common/farm/error_reason.h"
+#include "common/farm/files.h"
 #include "common/farm/film_codec.h"
 #include "common/farm/job_scene.h"
 #include "common/farm/log.h"
@@ -253,28 +254,6 @@ class CacheUnusable : public Error {
     using Error::Error;
 };
 
-// Why nothing can be written into `directory` (a small file written, flushed and removed), or
-// "" when it can.
-std::string cacheWriteProblem(const std::string& directory) {
-    const std::string probe = (fs::path(directory) / ".write-probe").string();
-    errno = 0;
-    {
-        std::ofstream file(probe, std::ios::binary | std::ios::trunc);
-        const std::string bytes(4096, '\0');
-        file.write(bytes.data(), std::streamsize(bytes.size()));
-        file.flush();
-        if (!file) {
-            const int error = errno;
-            std::error_code ignored;
-            fs::remove(probe, ignored);
-            return std::strerror(error ? error : EIO);
-        }
-    }
-    std::error_code ignored;
-    fs::remove(probe, ignored);
-    return "";
-}
-
 }  // namespace
 
 Worker::JobContext& Worker::prepareJob(const v1::JobDescription& job) {
@@ -303,7 +282,7 @@ Worker::JobContext& Worker::prepareJob(const v1::JobDescription& job) {
         throw;
     } catch (const Error& e) {
         // Whether the cache itself is at fault: then no job could be prepared here.
-        const std::string problem = cacheWriteProblem(m_options.cacheDirectory);
+        const std::string problem = farm::directoryWriteProblem(m_options.cacheDirectory);
         if (!problem.empty()) throw CacheUnusable(std::string(e.what()) + " (" + problem + ")");
         throw;
     }
@@ -557,7 +536,8 @@ void Worker::sayGoodbye() {
 
 int Worker::run() {
     // A cache that went read-only or full since it was made would fail every unit given here.
-    if (const std::string problem = cacheWriteProblem(m_options.cacheDirectory); !problem.empty())
+    if (const std::string problem = farm::directoryWriteProblem(m_options.cacheDirectory);
+        !problem.empty())
         fail("the worker cache %s cannot be written: %s", m_options.cacheDirectory, problem);
     registerWithCoordinator();
     m_heartbeat = std::thread([this] { heartbeatLoop(); });

@@ -73,4 +73,24 @@ void publishFileAtomically(const std::string& temporary, const std::string& path
     fsyncDirectory(std::filesystem::path(path).parent_path());
 }
 
+std::string directoryWriteProblem(const std::string& directory) {
+    const std::string probe = (std::filesystem::path(directory) / ".write-probe").string();
+    errno = 0;
+    {
+        std::ofstream file(probe, std::ios::binary | std::ios::trunc);
+        const std::string bytes(4096, '\0');
+        file.write(bytes.data(), std::streamsize(bytes.size()));
+        file.flush();
+        if (!file) {
+            const int error = errno;
+            std::error_code ignored;
+            std::filesystem::remove(probe, ignored);
+            return std::strerror(error ? error : EIO);
+        }
+    }
+    std::error_code ignored;
+    std::filesystem::remove(probe, ignored);
+    return "";
+}
+
 }  // namespace alphorn::farm

@@ -1,4 +1,5 @@
-// Small file helpers the daemons share: whole-file reads and crash-safe writes.
+// Small file helpers the daemons share: whole-file reads, crash-safe writes and a check that a
+// directory can be written.
 #pragma once
 
 #include <string>
@@ -13,5 +14,9 @@ void writeFileAtomically(const std::string& path, std::string_view contents);
 // Moves a finished file (already closed) to `path` with the same guarantee: its bytes are
 // flushed to disk before the rename, and the rename itself before returning.
 void publishFileAtomically(const std::string& temporary, const std::string& path);
+// Why nothing can be written into `directory` (a small file written, flushed and removed: the
+// disk is full, read-only or failing), or "" when it can. Tells a daemon's own storage failing
+// from a problem of the job it was preparing.
+std::string directoryWriteProblem(const std::string& directory);
 
 }  // namespace alphorn::farm

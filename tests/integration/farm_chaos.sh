@@ -3,7 +3,7 @@
 # three workers over TLS, under a random schedule of kill -9 and SIGSTOP/SIGCONT of workers,
 # kill -9 and SIGTERM of the coordinator with restarts, a second coordinator on the same state
 # directory, a watching client that disconnects and re-attaches, and a state directory that
-# fills up and is freed. Every job's EXR must be byte-identical to its `alphorn render`, and no
+# fills up and is freed, or fails with I/O errors or as read-only for a while. Every job's EXR must be byte-identical to its `alphorn render`, and no
 # process may hang (every wait is bounded).
 #
 # The schedule is a function of the seed: CHAOS_SEED=N CHAOS_STEPS=K bash farm_chaos.sh replays
@@ -38,9 +38,15 @@ openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj "/CN=localhost" \
     -keyout "$WORK/key.pem" -out "$WORK/cert.pem" >"$WORK/openssl.log" 2>&1 || fail "openssl failed"
 export ALPHORN_TLS_CA="$WORK/cert.pem"
 coordinator_flags=(--tls-cert "$WORK/cert.pem" --tls-key "$WORK/key.pem" --checkpoint-interval 0.5 --lease-seconds 2)
-start_coordinator 127.0.0.1:0 "${coordinator_flags[@]}"
+# Every coordinator runs with the preloaded library of tests/support/io_fault.cpp, which makes
+# its state directory fail (EIO or EROFS) while $WORK/disk-fault exists.
+start_coordinator_on() {
+    LD_PRELOAD=$IO_FAULT ALPHORN_IO_FAULT_DIR="$WORK/state" ALPHORN_IO_FAULT_SWITCH="$WORK/disk-fault" \
+        start_coordinator "$1" "${coordinator_flags[@]}"
+}
+start_coordinator_on 127.0.0.1:0
 restart_coordinator() {
-    start_coordinator "127.0.0.1:$PORT" "${coordinator_flags[@]}"
+    start_coordinator_on "127.0.0.1:$PORT"
 }
 
 declare -A WORKER_PIDS
@@ -73,6 +79,26 @@ fill_disk() {
 }
 free_disk() {
     if [[ $disk_mode == tmpfs ]]; then rm -f "$WORK/state/filler"; else prlimit --pid "$COORDINATOR_PID" --fsize=unlimited: || true; fi
+}
+# Disk episodes take turns, so that the schedule (a function of the seed) does not change: a full
+# disk, then I/O errors (EIO), then a full disk, then a read-only file system (EROFS), ...
+disk_episodes=0
+disk_episode() {  # disk_episode SECONDS: sets `what`
+    local held=$1
+    case $((disk_episodes++ % 4)) in
+        0 | 2)
+            fill_disk
+            sleep "$held"
+            free_disk
+            what="state directory full for $held s, freed" ;;
+        1 | 3)
+            local error=EIO
+            ((disk_episodes % 4 == 0)) && error=EROFS
+            echo "$error" >"$WORK/disk-fault"
+            sleep "$held"
+            rm -f "$WORK/disk-fault"
+            what="state directory's disk failing ($error) for $held s, back" ;;
+    esac
 }
 
 # stop_within SECONDS PID: waits for PID to exit; a process that does not is a hang.
@@ -131,11 +157,7 @@ for ((step = 1; step <= steps; step++)); do
             PIDS+=("$WATCH_PID")
             what="watching client killed and re-attached" ;;
         6)
-            fill_disk
-            held=$(uniform 500 2500)
-            sleep "$held"
-            free_disk
-            what="state directory full for $held s, freed" ;;
+            disk_episode "$(uniform 500 2500)" ;;
     esac
     echo "step $step: $what"
     sleep "$pause"

@@ -9,13 +9,9 @@
 
 #include <charconv>
 #include <chrono>
-#include <filesystem>
-#include <fstream>
 #include <set>
 
 namespace alphorn::coordinator {
-
-namespace fs = std::filesystem;
 
 namespace {
 
@@ -391,19 +387,7 @@ void Dashboard::previewPng(const farm::HttpRequest& request, farm::HttpResponse&
     Coordinator::ImageSnapshot snapshot = m_coordinator.snapshot(jobId, true);
     const Image image =
         resolveImage(snapshot.film, int(snapshot.status.width()), int(snapshot.status.height()));
-    const std::string path = (fs::path(m_coordinator.options().stateDirectory) / "tmp" /
-                              ("preview-" + farm::generateToken().substr(0, 16) + ".png"))
-                                 .string();
-    std::string bytes;
-    try {
-        writePNG(path, image, exposure);
-        std::ifstream file(path, std::ios::binary);
-        bytes.assign(std::istreambuf_iterator<char>(file), {});
-    } catch (...) {
-        fs::remove(path);
-        throw;
-    }
-    fs::remove(path);
+    std::string bytes = encodePNG(image, exposure);
     response.status = 200;
     response.addHeader("X-Alphorn-Units-Done", std::to_string(snapshot.status.units_done()));
     response.setContent(std::move(bytes), "image/png");

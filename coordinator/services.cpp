@@ -14,7 +14,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
-#include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <set>
@@ -22,8 +21,6 @@
 #include <vector>
 
 namespace alphorn::coordinator {
-
-namespace fs = std::filesystem;
 
 namespace {
 
@@ -312,21 +309,15 @@ grpc::Status ClientServiceImpl::GetImage(grpc::ServerContext* context,
         if (request->format() == v1::IMAGE_FORMAT_FILM) {
             bytes = farm::compressFilm(snapshot.film);
         } else {
-            // The very same writeEXR(resolveImage(film)) as `alphorn render`: the same bytes.
+            // The very same bytes as writeEXR(resolveImage(film)) in `alphorn render`, encoded in
+            // memory: an image can be fetched while the state directory's disk is full or
+            // read-only.
             const Image image =
                 resolveImage(snapshot.film, int(status.width()), int(status.height()));
-            const bool png = request->format() == v1::IMAGE_FORMAT_PNG;
-            const std::string path =
-                (fs::path(m_coordinator.options().stateDirectory) / "tmp" /
-                 (farm::generateToken().substr(0, 16) + (png ? ".png" : ".exr")))
-                    .string();
-            if (png)
-                writePNG(path, image, request->exposure());
+            if (request->format() == v1::IMAGE_FORMAT_PNG)
+                bytes = encodePNG(image, request->exposure());
             else
-                writeEXR(path, image);
-            std::ifstream file(path, std::ios::binary);
-            bytes.assign(std::istreambuf_iterator<char>(file), {});
-            fs::remove(path);
+                bytes = encodeEXR(image);
         }
         streamBytes<v1::ImageChunk>(writer, bytes, [&](v1::ImageChunk& chunk) {
             chunk.set_total_size(bytes.size());

@@ -25,8 +25,7 @@ namespace {
 // complete and flushed: a write that fails (a full disk, a file size limit, a lost mount) leaves
 // neither a truncated image nor a damaged earlier one at `path`. `write` writes the temporary
 // file and throws Error naming `path` on failure. Unlike farm::publishFileAtomically there is no
-// fsync: the coordinator writes every downloaded image to a scratch file it reads back at once,
-// where syncing to disk would be I/O for nothing.
+// fsync: an image can be rendered again, and the rename alone keeps a torn file out of the way.
 template <typename Write>
 void writeThroughTemporary(const std::string& path, const char* format, Write&& write) {
     const std::string temporary = path + ".partial-" + std::to_string(::getpid());
@@ -45,33 +44,53 @@ void writeThroughTemporary(const std::string& path, const char* format, Write&& 
 
 }  // namespace
 
+namespace {
+
+// The EXR of `image` (float R, G, B; ZIP compression) written to `out`. Throws what OpenEXR
+// throws.
+void writeEXRTo(Imf::OStream& out, const Image& image) {
+    Imf::Header header(image.width, image.height);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    for (const char* name : {"R", "G", "B"})
+        header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+    Imf::FrameBuffer frame;
+    const size_t xStride = 3 * sizeof(float), yStride = xStride * image.width;
+    char* base = reinterpret_cast<char*>(const_cast<float*>(image.rgb.data()));
+    frame.insert("R", Imf::Slice(Imf::FLOAT, base, xStride, yStride));
+    frame.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xStride, yStride));
+    frame.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xStride, yStride));
+    // OpenEXR writes the line offset table when the file object is destroyed and drops an
+    // error there; a file stream's state catches it (writeEXR).
+    Imf::OutputFile file(out, header);
+    file.setFrameBuffer(frame);
+    file.writePixels(image.height);
+}
+
+}  // namespace
+
 void writeEXR(const std::string& path, const Image& image) {
     writeThroughTemporary(path, "EXR", [&](const std::string& temporary) {
         std::ofstream stream(temporary, std::ios::binary | std::ios::trunc);
         if (!stream) fail("%s: cannot write EXR: %s", path, std::strerror(errno));
         try {
-            Imf::Header header(image.width, image.height);
-            header.compression() = Imf::ZIP_COMPRESSION;
-            for (const char* name : {"R", "G", "B"})
-                header.channels().insert(name, Imf::Channel(Imf::FLOAT));
-            Imf::FrameBuffer frame;
-            const size_t xStride = 3 * sizeof(float), yStride = xStride * image.width;
-            char* base = reinterpret_cast<char*>(const_cast<float*>(image.rgb.data()));
-            frame.insert("R", Imf::Slice(Imf::FLOAT, base, xStride, yStride));
-            frame.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xStride, yStride));
-            frame.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xStride, yStride));
             Imf::StdOFStream imfStream(stream, path.c_str());
-            // OpenEXR writes the line offset table when the file object is destroyed and drops
-            // an error there; the stream's state below catches it.
-            Imf::OutputFile file(imfStream, header);
-            file.setFrameBuffer(frame);
-            file.writePixels(image.height);
+            writeEXRTo(imfStream, image);
         } catch (const std::exception& e) {
             fail("%s: cannot write EXR: %s", path, e.what());
         }
         stream.close();
         if (stream.fail()) fail("%s: cannot write EXR: the file could not be written whole", path);
     });
+}
+
+std::string encodeEXR(const Image& image) {
+    try {
+        Imf::StdOSStream stream;
+        writeEXRTo(stream, image);
+        return stream.str();
+    } catch (const std::exception& e) {
+        fail("cannot encode EXR: %s", e.what());
+    }
 }
 
 void checkDeclaredImageSize(const std::string& path, uint64_t width, uint64_t height,
@@ -138,39 +157,60 @@ using FilePtr = std::unique_ptr<FILE, FileCloser>;
 void pngWarning(png_structp, png_const_charp) {}
 }  // namespace
 
+namespace {
+
+// Writes the 8-bit sRGB PNG of image * 2^exposure through `png`, whose output `setOutput(png)`
+// chooses; `what` names the destination in errors.
+template <typename SetOutput>
+void writePNGWith(const std::string& what, const Image& image, float exposure,
+                  SetOutput&& setOutput) {
+    const float scale = std::exp2(exposure);
+    std::vector<uint8_t> pixels(3 * size_t(image.width) * image.height);
+    for (size_t i = 0; i < pixels.size(); ++i) {
+        float v = image.rgb[i] * scale;
+        v = std::isfinite(v) ? clamp(v, 0.0f, 1.0f) : 0.0f;
+        Color3f encoded = Color3f(v).toSRGB();
+        pixels[i] = static_cast<uint8_t>(std::lround(encoded.r() * 255.0f));
+    }
+    std::string error;
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &error, pngError, pngWarning);
+    png_infop info = png ? png_create_info_struct(png) : nullptr;
+    if (!png || !info) {
+        png_destroy_write_struct(&png, nullptr);
+        fail("%s: cannot write PNG: out of memory", what);
+    }
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_write_struct(&png, &info);
+        fail("%s: cannot write PNG: %s", what, error);
+    }
+    setOutput(png);
+    png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
+                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
+    png_write_info(png, info);
+    for (int y = 0; y < image.height; ++y) png_write_row(png, &pixels[3 * size_t(y) * image.width]);
+    png_write_end(png, nullptr);
+    png_destroy_write_struct(&png, &info);
+}
+
+// No exception may cross libpng's C frames: running out of memory is reported the libpng way.
+void appendToString(png_structp png, png_bytep data, png_size_t length) {
+    try {
+        static_cast<std::string*>(png_get_io_ptr(png))
+            ->append(reinterpret_cast<char*>(data), length);
+    } catch (const std::bad_alloc&) {
+        png_error(png, "out of memory");
+    }
+}
+void flushNothing(png_structp) {}
+
+}  // namespace
+
 void writePNG(const std::string& path, const Image& image, float exposure) {
     writeThroughTemporary(path, "PNG", [&](const std::string& temporary) {
         FilePtr file(std::fopen(temporary.c_str(), "wb"));
         if (!file) fail("%s: cannot write PNG: %s", path, std::strerror(errno));
-        const float scale = std::exp2(exposure);
-        std::vector<uint8_t> pixels(3 * size_t(image.width) * image.height);
-        for (size_t i = 0; i < pixels.size(); ++i) {
-            float v = image.rgb[i] * scale;
-            v = std::isfinite(v) ? clamp(v, 0.0f, 1.0f) : 0.0f;
-            Color3f encoded = Color3f(v).toSRGB();
-            pixels[i] = static_cast<uint8_t>(std::lround(encoded.r() * 255.0f));
-        }
-        std::string error;
-        png_structp png =
-            png_create_write_struct(PNG_LIBPNG_VER_STRING, &error, pngError, pngWarning);
-        png_infop info = png ? png_create_info_struct(png) : nullptr;
-        if (!png || !info) {
-            png_destroy_write_struct(&png, nullptr);
-            fail("%s: cannot write PNG: out of memory", path);
-        }
-        if (setjmp(png_jmpbuf(png))) {
-            png_destroy_write_struct(&png, &info);
-            fail("%s: cannot write PNG: %s", path, error);
-        }
-        png_init_io(png, file.get());
-        png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB,
-                     PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-        png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
-        png_write_info(png, info);
-        for (int y = 0; y < image.height; ++y)
-            png_write_row(png, &pixels[3 * size_t(y) * image.width]);
-        png_write_end(png, nullptr);
-        png_destroy_write_struct(&png, &info);
+        writePNGWith(path, image, exposure, [&](png_structp png) { png_init_io(png, file.get()); });
         // Buffered bytes reach the file only here: a full disk shows up as a failed flush or close.
         int closeError = 0;
         if (std::fflush(file.get()) != 0 || std::ferror(file.get()))
@@ -178,6 +218,14 @@ void writePNG(const std::string& path, const Image& image, float exposure) {
         if (std::fclose(file.release()) != 0 && closeError == 0) closeError = errno ? errno : EIO;
         if (closeError != 0) fail("%s: cannot write PNG: %s", path, std::strerror(closeError));
     });
+}
+
+std::string encodePNG(const Image& image, float exposure) {
+    std::string bytes;
+    writePNGWith("PNG in memory", image, exposure, [&](png_structp png) {
+        png_set_write_fn(png, &bytes, appendToString, flushNothing);
+    });
+    return bytes;
 }
 
 Image readPNG(const std::string& path) {

@@ -8,7 +8,8 @@
 # status keeps answering; a control request waits and is answered once the disk is back;
 # SIGTERM during the fault stops the coordinator; a coordinator started on the failing directory
 # is refused, naming the file and the error; kill -9 during the fault and a restart after it lose
-# nothing. Every job's EXR is byte-identical to its `alphorn render`.
+# nothing. Every job's EXR is byte-identical to its `alphorn render`, and can be fetched while the
+# disk is read-only.
 source "$(dirname "$0")/farm_lib.sh"
 : "${IO_FAULT:?}"
 
@@ -128,6 +129,15 @@ for i in 0 1 2; do
     cmp "$WORK/local$i.exr" "$WORK/farm$i.exr" || fail "job ${jobs[$i]} (${scenes[$i]}) differs from its local render"
 done
 pass "all three jobs byte-identical to their local renders"
+# A finished job's image can be fetched while the disk is read-only: the images are encoded in
+# memory, not through a scratch file in the state directory.
+fault_on EROFS
+"$ALPHORN" fetch "${jobs[0]}" -o "$WORK/again.exr" --reconnect-seconds 2 >"$WORK/out.txt" 2>&1 ||
+    fail "fetch failed while the state directory was read-only: $(cat "$WORK/out.txt")"
+cmp "$WORK/local0.exr" "$WORK/again.exr" || fail "the EXR fetched during the fault differs"
+cmp "$WORK/local0.png" "$WORK/again.png" || fail "the PNG fetched during the fault differs"
+fault_off
+pass "EROFS: a finished job's EXR and PNG fetched, byte-identical"
 [[ $(job_field "${jobs[2]}" priority) == 3 ]] || fail "the priority asked for during the fault is not the job's"
 grep -q "event=checkpoint.failed.*Input/output error" "$WORK/coordinator.log" ||
     fail "the coordinator did not log its failed checkpoints"

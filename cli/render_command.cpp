@@ -18,7 +18,6 @@
 
 #include <cerrno>
 #include <charconv>
-#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <iostream>
@@ -46,10 +45,19 @@ struct RenderOptions {
 
 // --crop x0,y0,x1,y1: pixels [x0, x1) x [y0, y1) of an image of `size`.
 Tile cropWindow(const std::string& text, const Vector2i& size) {
+    // from_chars, not sscanf: "%d" wrapped 4294967297 to 1 and took " 5" and "+5".
     Tile crop;
-    char rest = 0;
-    if (std::sscanf(text.c_str(), "%d,%d,%d,%d%c", &crop.x0, &crop.y0, &crop.x1, &crop.y1, &rest) !=
-        4)
+    int* const corners[] = {&crop.x0, &crop.y0, &crop.x1, &crop.y1};
+    const char* next = text.data();
+    const char* const end = text.data() + text.size();
+    bool parsed = true;
+    for (int i = 0; i < 4 && parsed; ++i) {
+        const auto [stop, error] = std::from_chars(next, end, *corners[i]);
+        parsed = stop != next && error == std::errc() &&
+                 (i < 3 ? stop != end && *stop == ',' : stop == end);
+        next = stop + 1;
+    }
+    if (!parsed)
         fail("--crop %s: expected X0,Y0,X1,Y1 (pixels [X0, X1) x [Y0, Y1), e.g. 0,0,64,32)", text);
     if (crop.x0 < 0 || crop.y0 < 0 || crop.x0 >= crop.x1 || crop.y0 >= crop.y1 ||
         crop.x1 > size.x() || crop.y1 > size.y())
@@ -310,7 +318,7 @@ Command addRenderCommand(CLI::App& app) {
                     "before it is built")
         ->transform(CLI::AsSizeValue(false))
         // transform() puts a validator first: the sign is checked before the size is read.
-        ->transform(farm::kNotNegativeSize);
+        ->transform(farm::kDecimalSize);
     return {sub, [options] { return runRender(*options); }};
 }
 

@@ -106,6 +106,9 @@ SceneOverrides sceneOverrides(const RenderOptions& options) {
     return overrides;
 }
 
+// How far past --time-limit the render may end without a note saying why.
+constexpr double kTimeLimitSlackSeconds = 0.5;
+
 // Set by the first Ctrl-C (SIGINT); rendering stops after the pass in progress.
 std::atomic<bool> g_interrupted{false};
 std::atomic<bool> g_stop{false};
@@ -267,6 +270,13 @@ static int runRender(const RenderOptions& options) {
             "--passes %u, %.1f s)\n",
             interrupted ? "interrupted" : "time limit reached", passesDone, settings.passes, output,
             pngPathFor(output), passesDone, passesDone, seconds);
+    // The limit is looked at between passes only (a pass stopped halfway would have to be taken
+    // out of the film): a long pass overshoots it, which the user should not have to guess.
+    if (stoppedEarly && !interrupted && seconds > options.timeLimit + kTimeLimitSlackSeconds)
+        std::cerr << absl::StrFormat(
+            "note: the time limit (%g s) is looked at between passes; the pass running when it "
+            "passed was finished first, %.1f s after it\n",
+            options.timeLimit, seconds - options.timeLimit);
     else
         std::cerr << absl::StrFormat("wrote %s and %s (%d passes, %.1f s)\n", output,
                                      pngPathFor(output), passesDone, seconds);

@@ -18,7 +18,6 @@
 
 #include <cerrno>
 #include <charconv>
-#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <iostream>
@@ -46,10 +45,19 @@ struct RenderOptions {
 
 // --crop x0,y0,x1,y1: pixels [x0, x1) x [y0, y1) of an image of `size`.
 Tile cropWindow(const std::string& text, const Vector2i& size) {
+    // from_chars, not sscanf: "%d" wrapped 4294967297 to 1 and took " 5" and "+5".
     Tile crop;
-    char rest = 0;
-    if (std::sscanf(text.c_str(), "%d,%d,%d,%d%c", &crop.x0, &crop.y0, &crop.x1, &crop.y1, &rest) !=
-        4)
+    int* const corners[] = {&crop.x0, &crop.y0, &crop.x1, &crop.y1};
+    const char* next = text.data();
+    const char* const end = text.data() + text.size();
+    bool parsed = true;
+    for (int i = 0; i < 4 && parsed; ++i) {
+        const auto [stop, error] = std::from_chars(next, end, *corners[i]);
+        parsed = stop != next && error == std::errc() &&
+                 (i < 3 ? stop != end && *stop == ',' : stop == end);
+        next = stop + 1;
+    }
+    if (!parsed)
         fail("--crop %s: expected X0,Y0,X1,Y1 (pixels [X0, X1) x [Y0, Y1), e.g. 0,0,64,32)", text);
     if (crop.x0 < 0 || crop.y0 < 0 || crop.x0 >= crop.x1 || crop.y0 >= crop.y1 ||
         crop.x1 > size.x() || crop.y1 > size.y())
@@ -97,6 +105,9 @@ SceneOverrides sceneOverrides(const RenderOptions& options) {
     }
     return overrides;
 }
+
+// How far past --time-limit the render may end without a note saying why.
+constexpr double kTimeLimitSlackSeconds = 0.5;
 
 // Set by the first Ctrl-C (SIGINT); rendering stops after the pass in progress.
 std::atomic<bool> g_interrupted{false};
@@ -259,6 +270,13 @@ static int runRender(const RenderOptions& options) {
             "--passes %u, %.1f s)\n",
             interrupted ? "interrupted" : "time limit reached", passesDone, settings.passes, output,
             pngPathFor(output), passesDone, passesDone, seconds);
+    // The limit is looked at between passes only (a pass stopped halfway would have to be taken
+    // out of the film): a long pass overshoots it, which the user should not have to guess.
+    if (stoppedEarly && !interrupted && seconds > options.timeLimit + kTimeLimitSlackSeconds)
+        std::cerr << absl::StrFormat(
+            "note: the time limit (%g s) is looked at between passes; the pass running when it "
+            "passed was finished first, %.1f s after it\n",
+            options.timeLimit, seconds - options.timeLimit);
     else
         std::cerr << absl::StrFormat("wrote %s and %s (%d passes, %.1f s)\n", output,
                                      pngPathFor(output), passesDone, seconds);
@@ -310,7 +328,7 @@ Command addRenderCommand(CLI::App& app) {
                     "before it is built")
         ->transform(CLI::AsSizeValue(false))
         // transform() puts a validator first: the sign is checked before the size is read.
-        ->transform(farm::kNotNegativeSize);
+        ->transform(farm::kDecimalSize);
     return {sub, [options] { return runRender(*options); }};
 }
 

@@ -7,6 +7,10 @@
 #include "coordinator/log.h"
 #include "coordinator/state_db.h"
 
+#include <absl/strings/ascii.h>
+#include <absl/strings/str_format.h>
+
+#include <algorithm>
 #include <charconv>
 #include <chrono>
 #include <set>
@@ -102,6 +106,26 @@ uint64_t numberParam(const farm::HttpRequest& request, const char* name) {
                         absl::StrFormat("the parameter %s must be a number (got \"%s\")", name,
                                         text.substr(0, 40)));
     return value;
+}
+
+// The request_id parameter of a retry or delete: the page sends one per click and the same again
+// when it repeats the request, so that the coordinator acts once (RetryJobRequest.request_id).
+// Empty when absent; InvalidArgument when present but not 1 to 64 characters of [0-9A-Za-z_-].
+std::string requestIdParam(const farm::HttpRequest& request) {
+    if (!request.hasParam("request_id")) return {};
+    const std::string text = request.param("request_id");
+    constexpr size_t kMaxChars = 64;
+    const bool wellFormed =
+        !text.empty() && text.size() <= kMaxChars &&
+        std::all_of(text.begin(), text.end(), [](char c) {
+            return absl::ascii_isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
+        });
+    if (!wellFormed)
+        throw FarmError(FarmError::Kind::InvalidArgument,
+                        absl::StrFormat("the parameter request_id must be 1 to %u characters of "
+                                        "0-9, A-Z, a-z, _ and - (got %u bytes)",
+                                        kMaxChars, text.size()));
+    return text;
 }
 
 int httpStatusOf(const std::exception& e) {
@@ -414,10 +438,13 @@ void Dashboard::workersJson(farm::HttpResponse& response) {
 void Dashboard::jobAction(const farm::HttpRequest& request, farm::HttpResponse& response,
                           const std::string& action) {
     const uint64_t jobId = numberParam(request, "id");
+    const std::string requestId =
+        action == "delete" || action == "retry" ? requestIdParam(request) : std::string();
     if (action == "delete") {
         // The page asks before it sends this; a running job is cancelled, then deleted.
-        jsonAnswer(response, farm::toJson(m_coordinator.deleteJob(jobId, true)));
-        logInfo("dashboard.action", {field("action", action), field("job", jobId)});
+        jsonAnswer(response, farm::toJson(m_coordinator.deleteJob(jobId, true, requestId)));
+        logInfo("dashboard.action",
+                {field("action", action), field("job", jobId), field("request", requestId)});
         return;
     }
     v1::JobStatus status;
@@ -426,7 +453,7 @@ void Dashboard::jobAction(const farm::HttpRequest& request, farm::HttpResponse& 
     } else if (action == "resume") {
         status = m_coordinator.setPaused(jobId, false);
     } else if (action == "retry") {
-        status = m_coordinator.retry(jobId);
+        status = m_coordinator.retry(jobId, requestId);
     } else if (action == "cancel") {
         status = m_coordinator.cancel(jobId);
     } else {
@@ -438,7 +465,8 @@ void Dashboard::jobAction(const farm::HttpRequest& request, farm::HttpResponse& 
                             "the parameter priority must be a whole number");
         status = m_coordinator.setPriority(jobId, priority);
     }
-    logInfo("dashboard.action", {field("action", action), field("job", jobId)});
+    logInfo("dashboard.action",
+            {field("action", action), field("job", jobId), field("request", requestId)});
     jsonAnswer(response, "{\"job\":" + farm::toJson(status) + "}");
 }
 

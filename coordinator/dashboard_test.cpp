@@ -59,6 +59,13 @@ class DashboardTest : public CoordinatorJobTest {
   protected:
     void SetUp() override {
         CoordinatorJobTest::SetUp();
+        start();
+    }
+    void TearDown() override {
+        stop();
+        CoordinatorJobTest::TearDown();
+    }
+    void start() {
         m_coordinator = std::make_unique<Coordinator>(m_options);
         m_server = std::make_unique<farm::HttpServer>(farm::HttpServerOptions{"127.0.0.1:0"});
         m_dashboard = std::make_unique<Dashboard>(*m_coordinator,
@@ -67,11 +74,10 @@ class DashboardTest : public CoordinatorJobTest {
         m_server->start();
         m_client = std::make_unique<farm::HttpTestClient>("127.0.0.1", m_server->port());
     }
-    void TearDown() override {
+    void stop() {
         m_server->stop();
         m_dashboard.reset();
         m_coordinator.reset();
-        CoordinatorJobTest::TearDown();
     }
 
     static farm::HttpHeaders bearer(const std::string& token) {
@@ -273,6 +279,76 @@ TEST_F(DashboardTest, ActionsCallTheCoordinator) {
     EXPECT_EQ(post("/api/worker/undrain?id=" + workerId, bearer(kClientToken))->status, 200);
     EXPECT_FALSE(m_coordinator->listWorkers(true).at(0).draining());
     EXPECT_EQ(post("/api/worker/drain?id=9999", bearer(kClientToken))->status, 404);
+}
+
+// The page sends one request id per click of Retry or Delete, and the same id when it repeats
+// the request: the coordinator acts on the first and answers the others as it answered it, also
+// after a restart.
+TEST_F(DashboardTest, RetryAndDeleteWithARequestIdActOnceAcrossARestart) {
+    const uint64_t jobId = m_coordinator->submit(upload(*m_coordinator, 4)).job_id();
+    const std::string id = std::to_string(jobId);
+    m_coordinator->cancel(jobId);
+    const std::string retryPath = "/api/job/retry?id=" + id + "&request_id=retry-1_A";
+    auto first = post(retryPath, bearer(kClientToken));
+    ASSERT_EQ(first->status, 200) << first->body;
+    EXPECT_NE(first->body.find("\"state\":\"JOB_STATE_RUNNING\""), std::string::npos);
+    // Cancelled again: a second retry would run it again, the repeated request does not.
+    m_coordinator->cancel(jobId);
+    auto repeated = post(retryPath, bearer(kClientToken));
+    ASSERT_EQ(repeated->status, 200) << repeated->body;
+    EXPECT_EQ(repeated->body, first->body);
+    EXPECT_EQ(m_coordinator->listJobs(jobId).at(0).state(), v1::JOB_STATE_CANCELLED);
+
+    m_coordinator->stop();
+    stop();
+    start();
+    repeated = post(retryPath, bearer(kClientToken));
+    ASSERT_EQ(repeated->status, 200) << repeated->body;
+    EXPECT_EQ(repeated->body, first->body);
+    EXPECT_EQ(m_coordinator->listJobs(jobId).at(0).state(), v1::JOB_STATE_CANCELLED);
+    // Another click is another id: it retries.
+    EXPECT_EQ(post("/api/job/retry?id=" + id + "&request_id=retry-2", bearer(kClientToken))->status,
+              200);
+    EXPECT_EQ(m_coordinator->listJobs(jobId).at(0).state(), v1::JOB_STATE_RUNNING);
+
+    // Delete: the repeated request finds the job gone and answers as the first, not 404.
+    const std::string deletePath = "/api/job/delete?id=" + id + "&request_id=delete-1";
+    auto deleted = post(deletePath, bearer(kClientToken));
+    ASSERT_EQ(deleted->status, 200) << deleted->body;
+    EXPECT_THROW(m_coordinator->listJobs(jobId), FarmError);
+    auto deletedAgain = post(deletePath, bearer(kClientToken));
+    ASSERT_EQ(deletedAgain->status, 200) << deletedAgain->body;
+    EXPECT_EQ(deletedAgain->body, deleted->body);
+    m_coordinator->stop();
+    stop();
+    start();
+    deletedAgain = post(deletePath, bearer(kClientToken));
+    ASSERT_EQ(deletedAgain->status, 200) << deletedAgain->body;
+    EXPECT_EQ(deletedAgain->body, deleted->body);
+    // Without an id (an older page, curl) a repeated delete finds no job.
+    EXPECT_EQ(post("/api/job/delete?id=" + id, bearer(kClientToken))->status, 404);
+}
+
+TEST_F(DashboardTest, ABadRequestIdIsRefusedNamingTheParameter) {
+    const uint64_t jobId = m_coordinator->submit(upload(*m_coordinator, 4)).job_id();
+    m_coordinator->cancel(jobId);
+    const std::string id = std::to_string(jobId);
+    for (const std::string action : {"retry", "delete"})
+        for (const std::string& bad :
+             std::vector<std::string>{"", std::string(65, 'a'), "a%20b", "a%2Fb", "%C3%A9"}) {
+            auto answer = post("/api/job/" + action + "?id=" + id + "&request_id=" + bad,
+                               bearer(kClientToken));
+            EXPECT_EQ(answer->status, 400) << action << " " << bad;
+            EXPECT_NE(answer->body.find("the parameter request_id must be 1 to 64 characters"),
+                      std::string::npos)
+                << answer->body;
+        }
+    // Nothing was done: the job is still there, cancelled.
+    EXPECT_EQ(m_coordinator->listJobs(jobId).at(0).state(), v1::JOB_STATE_CANCELLED);
+    EXPECT_EQ(post("/api/job/retry?id=" + id + "&request_id=" + std::string(64, 'a'),
+                   bearer(kClientToken))
+                  ->status,
+              200);
 }
 
 }  // namespace

@@ -84,7 +84,7 @@ int main(int argc, char** argv) {
                    "(default: half the physical memory); a job that would exceed it is refused")
         ->transform(CLI::AsSizeValue(false))
         // transform() puts a validator first: the sign is checked before the size is read.
-        ->transform(farm::kNotNegativeSize);
+        ->transform(farm::kDecimalSize);
     app.add_option("--port-file", portFile, "Write the bound port to this file once listening");
     std::string httpListen, httpPortFile, metricsTokenFile;
     bool anonymousMetrics = false;
@@ -113,6 +113,7 @@ int main(int argc, char** argv) {
     app.add_option("--dashboard-viewer-token-file", viewerTokenFile,
                    "File holding a token that may look at the dashboard but not act")
         ->needs(dashboardFlag);
+    farm::requireDecimalIntegers(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

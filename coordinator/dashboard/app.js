@@ -44,17 +44,62 @@ async function getJson(path) {
   return response.json();
 }
 
+// One id per user action (128 random bits in hex), sent with a retry or delete: the coordinator
+// records it with the change and answers a request carrying it again as it answered the first,
+// so a repeated request (below, or across a coordinator restart) acts once.
+function newRequestId() {
+  const bytes = crypto.getRandomValues(new Uint8Array(16));
+  return Array.from(bytes, (byte) => byte.toString(16).padStart(2, '0')).join('');
+}
+
+// The waits before an action with a request id is sent again, when the coordinator could not be
+// reached or answered that it is unavailable (restarting).
+const REPEAT_DELAYS_MS = [1000, 2000, 4000, 8000];
+const UNAVAILABLE = [502, 503, 504];
+
+// The buttons whose action is on its way: they stay disabled until it is answered, so that a
+// double click sends one request.
+const pendingButtons = new Set();
+
 // An action (POST). The header tells the coordinator the request comes from its own pages: a
-// page of another site cannot send it.
-async function act(path) {
-  const response = await fetch(path, {
-    method: 'POST',
-    credentials: 'same-origin',
-    headers: {'X-Alphorn-Dashboard': '1'},
-  });
+// page of another site cannot send it. With `requestId` the request is repeated (with that id)
+// while the coordinator cannot be reached.
+async function act(path, requestId) {
+  const url = requestId ? `${path}&request_id=${requestId}` : path;
+  let response;
+  for (let attempt = 0; ; ++attempt) {
+    try {
+      response = await fetch(url, {
+        method: 'POST',
+        credentials: 'same-origin',
+        headers: {'X-Alphorn-Dashboard': '1'},
+      });
+      if (!requestId || !UNAVAILABLE.includes(response.status)) break;
+    } catch (error) {
+      response = undefined;
+      if (!requestId) break;
+    }
+    if (attempt === REPEAT_DELAYS_MS.length) break;
+    await new Promise((resolve) => setTimeout(resolve, REPEAT_DELAYS_MS[attempt]));
+  }
+  if (!response) {
+    showMessage('the coordinator could not be reached');
+    return false;
+  }
   if (response.status === 401) loginAgain();
   showMessage(response.ok ? '' : (await response.text()).trim());
   return response.ok;
+}
+
+// Runs a button's action once at a time.
+async function actFrom(button, path, requestId) {
+  pendingButtons.add(button);
+  document.getElementById(button).disabled = true;
+  try {
+    return await act(path, requestId);
+  } finally {
+    pendingButtons.delete(button);
+  }
 }
 
 function duration(seconds) {
@@ -175,7 +220,7 @@ function showFacts(job) {
   };
   for (const [id, allowed] of Object.entries(enable)) {
     const button = document.getElementById(id);
-    button.disabled = !operator || !allowed;
+    button.disabled = !operator || !allowed || pendingButtons.has(id);
     button.title = operator ? '' : 'The viewer token may look but not act';
   }
   const priority = document.getElementById('priority');
@@ -305,16 +350,19 @@ async function refreshJob() {
 
 function setUpJobActions() {
   const id = encodeURIComponent(jobPage.id);
-  const simple = {pause: 'pause', resume: 'resume', retry: 'retry'};
+  const simple = {pause: 'pause', resume: 'resume'};
   for (const [button, action] of Object.entries(simple))
-    document.getElementById(button).addEventListener('click', () => act(`/api/job/${action}?id=${id}`).then(refresh));
+    document.getElementById(button).addEventListener('click', () => actFrom(button, `/api/job/${action}?id=${id}`).then(refresh));
+  document.getElementById('retry').addEventListener('click', () => {
+    actFrom('retry', `/api/job/retry?id=${id}`, newRequestId()).then(refresh);
+  });
   document.getElementById('cancel').addEventListener('click', () => {
     if (confirm(`Cancel job ${jobPage.id}? Its merged units stay; retry runs it again.`))
       act(`/api/job/cancel?id=${id}`).then(refresh);
   });
   document.getElementById('delete').addEventListener('click', async () => {
     if (!confirm(`Delete job ${jobPage.id} with its images and log (a running job is cancelled first)?`)) return;
-    if (await act(`/api/job/delete?id=${id}`)) location.href = '/dashboard/';
+    if (await actFrom('delete', `/api/job/delete?id=${id}`, newRequestId())) location.href = '/dashboard/';
   });
   document.getElementById('set-priority').addEventListener('click', () => {
     const priority = document.getElementById('priority').value;

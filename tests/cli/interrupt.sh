@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Ctrl-C (SIGINT) during `alphorn render` writes the image of the passes completed, says so and
 # exits 130; that image is byte-identical to a render of that many passes. --time-limit stops the
-# same way and exits 0.
+# same way and exits 0, and says so when a long pass took the render well past the limit.
 # Usage: interrupt.sh ALPHORN SCENE
 set -u
 alphorn=$1
@@ -54,3 +54,14 @@ timeout 120 "$alphorn" render "$scene" -o "$out/reference.exr" --passes "$k" --s
   fail "the reference render failed"
 cmp "$out/limited.exr" "$out/reference.exr" || fail "the time-limited image differs from $k passes"
 echo "ok   --time-limit 1 stopped after $k passes, image identical to --passes $k"
+
+# A pass longer than the limit: finished first (whole passes only), and the message says so.
+timeout 120 "$alphorn" render "$scene" -o "$out/long.exr" --passes 3 --size 1000x1000 --time-limit 0.01 \
+  2>"$out/long.log"
+status=$?
+cat "$out/long.log"
+[ "$status" -eq 0 ] || fail "exit code $status with --time-limit 0.01, not 0"
+grep -q "time limit reached after 1 of 3 passes" "$out/long.log" || fail "no time limit message"
+grep -q "note: the time limit (0.01 s) is looked at between passes; the pass running when it passed was finished first" \
+  "$out/long.log" || fail "no note that the pass running at the limit was finished first"
+echo "ok   a pass longer than --time-limit is finished first, and the message says so"

@@ -7,7 +7,8 @@ It checks that a request without a token is refused (401, also when /metrics is 
 that a wrong token does not log in, that the client token does, that the jobs page lists the
 job, that the job page's preview image changes while the job runs (the PNG bytes at two moments
 differ, and the page loads a new one), that pause, priority and resume act (the page and the API
-show it), that cancel, retry and delete act on a second job, that the convergence chart draws the estimates, that the workers page drains and
+show it), that cancel, retry and delete act on a second job (retry and delete each sending a request
+id, which makes a repeated request act once), that the convergence chart draws the estimates, that the workers page drains and
 undrains a worker, that an action sent with the session cookie but without the dashboard's
 header is refused (403: no cross-site forgery), and that the viewer token sees the pages but
 cannot act (403, buttons disabled).
@@ -18,6 +19,7 @@ so, with a larger scene: see docs/dashboard.md).
 import argparse
 import json
 import os
+import re
 import secrets
 import shutil
 import subprocess
@@ -338,6 +340,13 @@ def run(args):
         if status != 404:
             fail(f"the deleted job is still there (/api/job answered {status})")
         ok("Cancel, Retry and Delete act on a second job (404 once deleted)")
+        log = open(farm.path("coordinator.log")).read()
+        for action in ("retry", "delete"):
+            if not re.search(rf'event=dashboard\.action action={action} job={second_id} '
+                             r'request="?[0-9a-f]{32}\b', log):
+                fail(f"the page's {action} sent no request id (no dashboard.action line of "
+                     f"coordinator.log names one)")
+        ok("Retry and Delete send a request id of 32 hex digits")
 
         # ---- the workers page: drain and undrain worker a.
         driver.get(farm.url + "/dashboard/workers")

@@ -106,6 +106,22 @@ TEST(ImageFiles, ASuccessfulWriteReplacesTheEarlierFile) {
     fs::remove_all(directory);
 }
 
+// The coordinator sends images encoded in memory (its disk may be full or read-only) and
+// promises them byte-identical to the files `alphorn render` writes: the encoders give the
+// files' bytes, for EXR and for PNG at several exposures.
+TEST(ImageFiles, ImagesEncodedInMemoryAreTheFilesBytes) {
+    const fs::path directory = freshDirectory("image_files_encoded");
+    const Image image = noise(37, 23);
+    writeEXR((directory / "a.exr").string(), image);
+    EXPECT_EQ(encodeEXR(image), contents(directory / "a.exr"));
+    for (const float exposure : {0.0f, 1.5f, -3.0f}) {
+        writePNG((directory / "a.png").string(), image, exposure);
+        EXPECT_EQ(encodePNG(image, exposure), contents(directory / "a.png")) << exposure;
+    }
+    EXPECT_EQ(readEXR((directory / "a.exr").string()).rgb, image.rgb);
+    fs::remove_all(directory);
+}
+
 // PNG's CRC-32 (ISO 3309), for patching a chunk.
 uint32_t crc32(const std::string& bytes) {
     uint32_t crc = 0xffffffffu;

@@ -136,6 +136,12 @@ constexpr size_t kMaxObjFaceVertices = 4096;
 // face; the repository's scenes have no face of more than 4 vertices.
 constexpr uint64_t kMaxObjTriangulationWork = 8 * kMaxObjFaceVertices * kMaxObjFaceVertices;
 
+// The most triangulation work (in the same units) a scene's OBJ files may take together, each
+// file counted once however many <mesh> elements name it: twice a file's bound, about a second.
+// Without it a scene naming many files, each just within kMaxObjTriangulationWork, took 0.4 s a
+// file.
+constexpr uint64_t kMaxSceneTriangulationWork = 2 * kMaxObjTriangulationWork;
+
 // The OBJ loader's pass over the text before tinyobjloader reads it (obj_mesh.cpp): refuses,
 // with "`name`:LINE: problem", the first line tinyobjloader would misread without a word (a
 // number that is not a finite decimal one, a wrong count of numbers, a face index that is not
@@ -156,6 +162,8 @@ struct ObjCounts {
     // Distinct (position, uv, normal) index triples of the faces: the mesh's vertices.
     uint64_t vertices = 0;
     bool normals = true, uvs = true;  // whether every face vertex has one (the mesh keeps them)
+    // The sum of n^2 over the faces of n > 4 vertices (see kMaxObjTriangulationWork).
+    uint64_t triangulationWork = 0;
 
     uint64_t memoryBytes() const { return meshMemoryBytes(triangles, vertices, normals, uvs); }
 };

@@ -219,6 +219,7 @@ size_t scanObjText(std::string& text, const std::string& name, bool prepare, Obj
         read = breakEnd;
     }
     if (prepare) text.resize(write);
+    if (counter) counter->counts.triangulationWork = triangulationWork;
     return faceCount;
 }
 

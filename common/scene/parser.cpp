@@ -205,8 +205,10 @@ class Parser {
     // keeps a file's mesh until every <mesh> naming it has it, and the text counted (checked and
     // prepared for tinyobjloader) until the first of them builds from it. A scene whose meshes
     // would take more memory than allowed is refused at the mesh from which on they do, naming the
-    // whole scene's figures. A mesh whose file cannot be named or counted here is left to its
-    // plugin, which reports the problem where it belongs as the scene is built.
+    // whole scene's figures, and one whose files would take too long to triangulate at the mesh
+    // whose file goes beyond kMaxSceneTriangulationWork. A mesh whose file cannot be named or
+    // counted here is left to its plugin, which reports the problem where it belongs as the scene
+    // is built.
     void checkGeometry(pugi::xml_document& doc) {
         struct Meshes : pugi::xml_tree_walker {
             std::vector<pugi::xml_node> nodes;
@@ -220,7 +222,7 @@ class Parser {
         const uint64_t limit =
             m_limits.maxGeometryBytes ? m_limits.maxGeometryBytes : physicalMemoryBytes();
         std::map<std::string, std::optional<ObjCounts>> counted;  // by resolved path
-        uint64_t meshCount = 0, triangles = 0, vertices = 0, bytes = 0;
+        uint64_t meshCount = 0, triangles = 0, vertices = 0, bytes = 0, triangulationWork = 0;
         pugi::xml_node beyond;  // the mesh with which the total goes beyond the limit
         std::string beyondFile;
         ObjCounts beyondCounts;
@@ -250,6 +252,19 @@ class Parser {
             }
             if (!entry->second) continue;
             const ObjCounts& counts = *entry->second;
+            // A file's mesh is built once for all the <mesh> elements naming it.
+            if (isNew) triangulationWork += counts.triangulationWork;
+            if (triangulationWork > kMaxSceneTriangulationWork)
+                failAt(mesh,
+                       "this mesh's OBJ file %s takes the scene beyond the triangulation work "
+                       "allowed: the squares of the vertex counts of the faces of more than 4 "
+                       "vertices in the scene's OBJ files add up to %u (this file %u), more than "
+                       "%u (%d faces of %d vertices; triangulating a polygon takes time quadratic "
+                       "in its vertices)",
+                       filename, triangulationWork, counts.triangulationWork,
+                       kMaxSceneTriangulationWork,
+                       kMaxSceneTriangulationWork / (kMaxObjFaceVertices * kMaxObjFaceVertices),
+                       kMaxObjFaceVertices);
             m_loadContext->announceObjFile(path);
             if (text) m_loadContext->keepObjText(path, std::move(*text));
             ++meshCount;

@@ -35,6 +35,7 @@ void Mesh::setGeometry(Eigen::Matrix<float, 3, Eigen::Dynamic> positions,
     m_areaPdf.reserve(triangleCount());
     for (uint32_t i = 0; i < triangleCount(); ++i) m_areaPdf.append(triangleArea(i));
     m_surfaceArea = static_cast<float>(m_areaPdf.normalize());
+    m_surfaceAreaPdf = 1.0f / m_surfaceArea;
 }
 
 void Mesh::addChild(const std::shared_ptr<Object>& child, const std::string& name) {
@@ -194,7 +195,7 @@ SurfaceSample Mesh::sampleSurface(const Point2f& sample) const {
         s.uv = w * m_uvs.col(i0) + bu * m_uvs.col(i1) + bv * m_uvs.col(i2);
     else
         s.uv = Point2f(bu, bv);
-    s.pdf = 1.0f / m_surfaceArea;
+    s.pdf = m_surfaceAreaPdf;
     return s;
 }
 

@@ -104,6 +104,7 @@ class Mesh : public Object {
     Eigen::Matrix<uint32_t, 3, Eigen::Dynamic> m_faces;
     DiscretePDF m_areaPdf;
     float m_surfaceArea = 0.0f;
+    float m_surfaceAreaPdf = 0.0f;  // 1 / m_surfaceArea, divided once
 
     std::shared_ptr<BSDF> m_bsdf;
     std::shared_ptr<Emitter> m_emitter;

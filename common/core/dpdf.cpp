@@ -10,24 +10,17 @@ double DiscretePDF::normalize() {
         m_cdf.back() = 1.0;
     }
     m_normalized = true;
+    m_countSearch = size() >= 1 && size() <= kMaxCountedEntries && m_cdf[0] == 0.0;
+    for (size_t i = 1; i < m_cdf.size(); ++i)
+        if (!(m_cdf[i] >= m_cdf[i - 1])) m_countSearch = false;  // also catches NaN
     return m_sum;
 }
 
-size_t DiscretePDF::sample(float u) const {
+size_t DiscretePDF::sampleBySearch(float u) const {
     auto it = std::upper_bound(m_cdf.begin(), m_cdf.end(), static_cast<double>(u));
     size_t index = static_cast<size_t>(std::max<std::ptrdiff_t>(0, it - m_cdf.begin() - 1));
     index = std::min(index, size() - 1);
-    // Skip zero-weight entries that upper_bound can land on at exact boundaries.
-    while (index + 1 < size() && m_cdf[index + 1] == m_cdf[index]) ++index;
-    return index;
-}
-
-size_t DiscretePDF::sampleReuse(float& u) const {
-    size_t index = sample(u);
-    double width = m_cdf[index + 1] - m_cdf[index];
-    u = width > 0.0 ? static_cast<float>((u - m_cdf[index]) / width) : 0.0f;
-    u = std::min(u, 0.99999994f);
-    return index;
+    return skipZeroWeights(index);
 }
 
 }  // namespace alphorn

@@ -32,7 +32,7 @@ class AreaLight : public Emitter {
 
     Color3f sample(EmitterQueryRecord& rec, const Point2f& sample) const override {
         const SurfaceSample s = m_mesh->sampleSurface(sample);
-        rec = EmitterQueryRecord(rec.ref, s.p, s.n);
+        rec.aimAt(s.p, s.n);
         rec.pdf = pdf(rec);
         // Zero when the point faces away, coincides with ref, or is seen exactly edge-on.
         if (!(rec.pdf > 0.0f) || rec.wi.isZero()) {

@@ -10,7 +10,7 @@ namespace alphorn {
 class DeltaPositionLight : public Emitter {
   public:
     Color3f sample(EmitterQueryRecord& rec, const Point2f&) const final {
-        rec = EmitterQueryRecord(rec.ref, m_position, Normal3f::Zero());
+        rec.aimAt(m_position, Normal3f::Zero());
         const float dist2 = (m_position - rec.ref).squaredNorm();
         // A receiver at the light itself would see infinite irradiance: treat it as no sample.
         if (!(dist2 > 0.0f) || rec.wi.isZero()) {

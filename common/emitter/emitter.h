@@ -22,7 +22,13 @@ struct EmitterQueryRecord {
     EmitterQueryRecord() = default;
     explicit EmitterQueryRecord(const Point3f& ref) : ref(ref) {}
     // For evaluating an emitter hit by a ray from ref at p with normal n.
-    EmitterQueryRecord(const Point3f& ref, const Point3f& p, const Normal3f& n);
+    EmitterQueryRecord(const Point3f& ref, const Point3f& p, const Normal3f& n) : ref(ref) {
+        aimAt(p, n);
+    }
+    // Makes this the record EmitterQueryRecord(ref, p, n) would be, in place: a sampler fills the
+    // caller's record without building one and copying it over (the copy's wide loads of the
+    // new record's narrow stores stalled on store forwarding).
+    void aimAt(const Point3f& p, const Normal3f& n);
 };
 
 class Emitter : public Object {

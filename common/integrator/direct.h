@@ -51,6 +51,8 @@ inline float emitterSamplingPdf(const Scene& scene, const Point3f& origin, const
 // its own sample() of a point on it. Always draws one 1D and one 2D number so sample dimensions
 // stay aligned. `emitter` stays null when nothing usable was sampled.
 struct LightSample {
+    explicit LightSample(const Point3f& ref) : rec(ref) {}
+
     const Emitter* emitter = nullptr;
     float selectionPdf = 0.0f;
     EmitterQueryRecord rec;
@@ -60,8 +62,7 @@ struct LightSample {
 inline LightSample sampleLight(const Scene& scene, Sampler& sampler, const Point3f& ref) {
     float selection = sampler.next1D();
     const Point2f lightSample = sampler.next2D();
-    LightSample light;
-    light.rec = EmitterQueryRecord(ref);
+    LightSample light(ref);
     const Emitter* emitter = scene.sampleEmitter(selection, light.selectionPdf);
     if (!emitter || !(light.selectionPdf > 0.0f)) return light;
     light.radianceOverPdf = emitter->sample(light.rec, lightSample);
@@ -90,7 +91,9 @@ inline Color3f sampleDirect(const Scene& scene, Sampler& sampler, const Intersec
     // The shadow ray is traced last: it is the expensive part and often unnecessary.
     if (scene.rayOccluded(lRec.shadowRay)) return Color3f(0.0f);
 
-    Color3f result = f * radianceOverPdf * std::abs(Frame::cosTheta(bRec.wo)) / selectionPdf;
+    Color3f result = f * radianceOverPdf * std::abs(Frame::cosTheta(bRec.wo));
+    // x / 1 is x: with a single emitter the three divisions are skipped, bytes unchanged.
+    if (selectionPdf != 1.0f) result /= selectionPdf;
     if (mis && !light.emitter->isDelta())
         result *= balanceHeuristic(lRec.pdf * selectionPdf, bsdf.pdf(bRec));
     return result;

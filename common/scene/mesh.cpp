@@ -35,6 +35,16 @@ void Mesh::setGeometry(Eigen::Matrix<float, 3, Eigen::Dynamic> positions,
     m_areaPdf.reserve(triangleCount());
     for (uint32_t i = 0; i < triangleCount(); ++i) m_areaPdf.append(triangleArea(i));
     m_surfaceArea = static_cast<float>(m_areaPdf.normalize());
+    m_surfaceAreaPdf = 1.0f / m_surfaceArea;
+}
+
+inline void Mesh::corners(uint32_t triangle, Corners& c) const {
+    for (int k = 0; k < 3; ++k) {
+        const uint32_t i = m_faces(k, triangle);
+        c.p[k] = m_positions.data() + 3 * size_t(i);
+        if (m_normals.cols() > 0) c.n[k] = m_normals.data() + 3 * size_t(i);
+        if (m_uvs.cols() > 0) c.t[k] = m_uvs.data() + 2 * size_t(i);
+    }
 }
 
 void Mesh::addChild(const std::shared_ptr<Object>& child, const std::string& name) {
@@ -113,10 +123,10 @@ Normal3f Mesh::geometricNormal(uint32_t triangle) const {
                                m_positions.col(m_faces(2, triangle)));
 }
 
-bool Mesh::interpolatedNormal(uint32_t i0, uint32_t i1, uint32_t i2, float u, float v, float w,
-                              Normal3f& normal) const {
+inline bool Mesh::interpolatedNormal(const Corners& c, float u, float v, float w,
+                                     Normal3f& normal) const {
     if (m_normals.cols() == 0) return false;
-    Vector3f n = w * m_normals.col(i0) + u * m_normals.col(i1) + v * m_normals.col(i2);
+    Vector3f n = w * c.N(0) + u * c.N(1) + v * c.N(2);
     float nl = n.norm();
     if (!(nl > 0.0f && std::isfinite(nl))) return false;
     normal = n / nl;
@@ -124,25 +134,25 @@ bool Mesh::interpolatedNormal(uint32_t i0, uint32_t i1, uint32_t i2, float u, fl
 }
 
 void Mesh::fillIntersection(uint32_t triangle, float u, float v, Intersection& its) const {
-    const uint32_t i0 = m_faces(0, triangle), i1 = m_faces(1, triangle), i2 = m_faces(2, triangle);
+    Corners c;
+    corners(triangle, c);
     const float w = 1.0f - u - v;
-    const Point3f p0 = m_positions.col(i0), p1 = m_positions.col(i1), p2 = m_positions.col(i2);
     its.mesh = this;
     its.triangle = triangle;
-    its.p = w * p0 + u * p1 + v * p2;
+    its.p = w * c.P(0) + u * c.P(1) + v * c.P(2);
     if (m_uvs.cols() > 0)
-        its.uv = w * m_uvs.col(i0) + u * m_uvs.col(i1) + v * m_uvs.col(i2);
+        its.uv = w * c.T(0) + u * c.T(1) + v * c.T(2);
     else
         its.uv = Point2f(u, v);
 
     Normal3f shading;
-    if (!interpolatedNormal(i0, i1, i2, u, v, w, shading))
-        shading = unitGeometricNormal(p0, p1, p2);
+    if (!interpolatedNormal(c, u, v, w, shading))
+        shading = unitGeometricNormal(c.P(0), c.P(1), c.P(2));
     // Where the BSDF needs a tangent (and the mesh has uvs) it follows u, and the frame built
     // from the normal alone is only the fallback where the uvs are degenerate. Elsewhere that
     // frame is the whole answer: it costs one division against the aligned frame's dp/du, dp/dv
     // and normalisation (about 3% of a Cornell box render's CPU time).
-    if (m_frameFollowsUvs && frameAlignedWithU(i0, i1, i2, shading, its.shFrame)) return;
+    if (m_frameFollowsUvs && frameAlignedWithU(c, shading, its.shFrame)) return;
     its.shFrame = Frame(shading);
 }
 
@@ -152,13 +162,12 @@ void Mesh::fillIntersection(uint32_t triangle, float u, float v, Intersection& i
 // mirrored (dp/du x dp/dv against the normal) this makes the frame left-handed, which every use
 // of a frame allows: it is only ever used through dot products and their inverse. Returns false,
 // leaving `frame` alone, where the uvs are degenerate.
-bool Mesh::frameAlignedWithU(uint32_t i0, uint32_t i1, uint32_t i2, const Normal3f& n,
-                             Frame& frame) const {
-    const Vector2f duv02 = m_uvs.col(i0) - m_uvs.col(i2), duv12 = m_uvs.col(i1) - m_uvs.col(i2);
+bool Mesh::frameAlignedWithU(const Corners& c, const Normal3f& n, Frame& frame) const {
+    const Vector2f duv02 = c.T(0) - c.T(2), duv12 = c.T(1) - c.T(2);
     const float det = duv02.x() * duv12.y() - duv02.y() * duv12.x();
     if (!(std::abs(det) > 1e-12f)) return false;
-    const Vector3f dp02 = m_positions.col(i0) - m_positions.col(i2);
-    const Vector3f dp12 = m_positions.col(i1) - m_positions.col(i2);
+    const Vector3f dp02 = c.P(0) - c.P(2);
+    const Vector3f dp12 = c.P(1) - c.P(2);
     const Vector3f dpdu = (duv12.y() * dp02 - duv02.y() * dp12) / det;
     Vector3f s = dpdu - n * n.dot(dpdu);
     const float length = s.norm();
@@ -185,16 +194,16 @@ SurfaceSample Mesh::sampleSurface(const Point2f& sample) const {
     uint32_t triangle = static_cast<uint32_t>(m_areaPdf.sampleReuse(u));
     Point2f bary = warp::squareToUniformTriangle(Point2f(u, sample.y()));
     const float bu = bary.x(), bv = bary.y(), w = 1.0f - bu - bv;
-    const uint32_t i0 = m_faces(0, triangle), i1 = m_faces(1, triangle), i2 = m_faces(2, triangle);
-    const Point3f p0 = m_positions.col(i0), p1 = m_positions.col(i1), p2 = m_positions.col(i2);
+    Corners c;
+    corners(triangle, c);
     SurfaceSample s;
-    s.p = w * p0 + bu * p1 + bv * p2;
-    if (!interpolatedNormal(i0, i1, i2, bu, bv, w, s.n)) s.n = unitGeometricNormal(p0, p1, p2);
+    s.p = w * c.P(0) + bu * c.P(1) + bv * c.P(2);
+    if (!interpolatedNormal(c, bu, bv, w, s.n)) s.n = unitGeometricNormal(c.P(0), c.P(1), c.P(2));
     if (m_uvs.cols() > 0)
-        s.uv = w * m_uvs.col(i0) + bu * m_uvs.col(i1) + bv * m_uvs.col(i2);
+        s.uv = w * c.T(0) + bu * c.T(1) + bv * c.T(2);
     else
         s.uv = Point2f(bu, bv);
-    s.pdf = 1.0f / m_surfaceArea;
+    s.pdf = m_surfaceAreaPdf;
     return s;
 }
 

@@ -91,12 +91,19 @@ class Mesh : public Object {
     std::string m_name;
 
   private:
+    // Where a triangle's corners are: positions, and normals and uvs where the mesh has them
+    // (pointers into the vertex arrays, so that the inlined users read them without copies).
+    struct Corners {
+        const float *p[3], *n[3], *t[3];
+        Eigen::Map<const Point3f> P(int k) const { return Eigen::Map<const Point3f>(p[k]); }
+        Eigen::Map<const Normal3f> N(int k) const { return Eigen::Map<const Normal3f>(n[k]); }
+        Eigen::Map<const Point2f> T(int k) const { return Eigen::Map<const Point2f>(t[k]); }
+    };
+    inline void corners(uint32_t triangle, Corners& c) const;
     // The interpolated vertex normal at barycentrics (u, v, w), unit length; false if the mesh
     // has no normals or they cancel there.
-    bool interpolatedNormal(uint32_t i0, uint32_t i1, uint32_t i2, float u, float v, float w,
-                            Normal3f& normal) const;
-    bool frameAlignedWithU(uint32_t i0, uint32_t i1, uint32_t i2, const Normal3f& n,
-                           Frame& frame) const;
+    bool interpolatedNormal(const Corners& c, float u, float v, float w, Normal3f& normal) const;
+    bool frameAlignedWithU(const Corners& c, const Normal3f& n, Frame& frame) const;
 
     Eigen::Matrix<float, 3, Eigen::Dynamic> m_positions;
     Eigen::Matrix<float, 3, Eigen::Dynamic> m_normals;  // empty when the file has none
@@ -104,6 +111,7 @@ class Mesh : public Object {
     Eigen::Matrix<uint32_t, 3, Eigen::Dynamic> m_faces;
     DiscretePDF m_areaPdf;
     float m_surfaceArea = 0.0f;
+    float m_surfaceAreaPdf = 0.0f;  // 1 / m_surfaceArea, divided once
 
     std::shared_ptr<BSDF> m_bsdf;
     std::shared_ptr<Emitter> m_emitter;

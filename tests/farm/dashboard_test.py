@@ -31,7 +31,8 @@ import urllib.request
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
-from selenium.common.exceptions import NoSuchElementException, StaleElementReferenceException
+from selenium.common.exceptions import (NoSuchElementException, StaleElementReferenceException,
+                                        WebDriverException)
 from selenium.webdriver.common.by import By
 
 WAIT_SECONDS = 20
@@ -179,6 +180,12 @@ def log_in(driver, farm, token):
             return False
         except StaleElementReferenceException:
             return True
+        except WebDriverException as error:
+            # Asked while the next page replaces it, Chromium may answer that the element's node
+            # "does not belong to the document" instead of calling it stale: the page was left.
+            if "does not belong to the document" in str(error):
+                return True
+            raise
     wait_for("the login form is sent", left)
 
 

@@ -69,7 +69,7 @@ int main(int argc, char** argv) {
     for (Command& command : addControlCommands(app)) commands.push_back(std::move(command));
     commands.push_back(addClusterCommand(app));
     commands.push_back(addTestCommand(app));
-    alphorn::farm::requireDecimalIntegers(app);
+    alphorn::farm::requireDecimalNumbers(app);
 
     try {
         app.parse(argc, argv);

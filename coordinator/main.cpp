@@ -113,7 +113,7 @@ int main(int argc, char** argv) {
     app.add_option("--dashboard-viewer-token-file", viewerTokenFile,
                    "File holding a token that may look at the dashboard but not act")
         ->needs(dashboardFlag);
-    farm::requireDecimalIntegers(app);
+    farm::requireDecimalNumbers(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

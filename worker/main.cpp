@@ -64,7 +64,7 @@ int main(int argc, char** argv) {
     app.add_flag("--http-anonymous-metrics", anonymousMetrics,
                  "Serve /metrics to anyone, without a token (only on a trusted network)")
         ->needs(http);
-    farm::requireDecimalIntegers(app);
+    farm::requireDecimalNumbers(app);
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

@@ -25,7 +25,7 @@ inline const CLI::Validator kFinite(
     },
     "FINITE");
 
-// The name of kDecimalSize, by which requireDecimalIntegers() knows an option that takes units.
+// The name of kDecimalSize, by which requireDecimalNumbers() knows an option that takes units.
 inline const std::string kSizeValidatorName = "decimal size";
 
 namespace detail {
@@ -115,14 +115,54 @@ inline const CLI::Validator kUint64(
     },
     "");
 
+// Floating-point options likewise take decimal notation only: an optional '-', digits with an
+// optional fraction, an optional exponent ("0.25", "-1.5", "2e-3"). CLI11 reads them with
+// strtold, which also took " 2", "+2" and "0x1p2" (4); "nan" and "inf" are refused as kFinite
+// refuses them.
+inline const CLI::Validator kDecimalFloat(
+    [](std::string& value) -> std::string {
+        size_t i = !value.empty() && value[0] == '-' ? 1 : 0;
+        std::string word = value.substr(i);
+        for (char& c : word) c = char(std::tolower(static_cast<unsigned char>(c)));
+        if (word == "nan" || word == "inf" || word == "infinity")
+            return "must be a finite number, got " + value;  // kFinite's words
+        const auto digits = [&] {
+            const size_t begin = i;
+            while (i < value.size() && std::isdigit(static_cast<unsigned char>(value[i]))) ++i;
+            return i - begin;
+        };
+        size_t mantissa = digits();
+        if (i < value.size() && value[i] == '.') {
+            ++i;
+            mantissa += digits();
+        }
+        bool ok = mantissa > 0;
+        if (ok && i < value.size() && (value[i] == 'e' || value[i] == 'E')) {
+            ++i;
+            if (i < value.size() && (value[i] == '+' || value[i] == '-')) ++i;
+            ok = digits() > 0;
+        }
+        if (!ok || i != value.size())
+            return "expected a decimal number (e.g. 0.25, -1.5 or 2e-3; no 0x, + or spaces), "
+                   "got " +
+                   value;
+        return "";
+    },
+    "");
+
 // Applies kDecimalInteger (first) and the 64-bit range check (last) to every integer option of
-// the app and its subcommands, present and future values alike: call it once, after every
-// option is declared. Integer options are those CLI11 names INT or UINT; options read with
-// units (kDecimalSize) have their own check.
-inline void requireDecimalIntegers(CLI::App& app) {
+// the app and its subcommands, and kDecimalFloat (first) to every floating-point one, present
+// and future values alike: call it once, after every option is declared. Integer options are
+// those CLI11 names INT or UINT, floating-point ones FLOAT; options read with units
+// (kDecimalSize) have their own check.
+inline void requireDecimalNumbers(CLI::App& app) {
     for (CLI::Option* option : app.get_options()) {
         const std::string type = option->get_type_name();
         const std::string base = type.substr(0, type.find(':'));
+        if (base == "FLOAT") {
+            option->transform(kDecimalFloat);
+            continue;
+        }
         if (base != "INT" && base != "UINT") continue;
         try {
             option->get_validator(kSizeValidatorName);
@@ -133,7 +173,7 @@ inline void requireDecimalIntegers(CLI::App& app) {
         option->check(base == "INT" ? kInt64 : kUint64);
     }
     for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; }))
-        requireDecimalIntegers(*sub);
+        requireDecimalNumbers(*sub);
 }
 
 }  // namespace alphorn::farm

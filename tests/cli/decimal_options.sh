@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# Integer options take decimal digits only, as scene files do: CLI11 alone read "--spp 0x10" as
-# 16 passes, "--seed 010" as seed 8 (octal) and " 5" as 5. Every subcommand's and daemon's
-# integer options refuse the other spellings (through expect_error.sh: exit 1, the option and
-# the value named), and leading zeros are decimal: --spp 017 --seed 010 gives the bytes of
-# --spp 17 --seed 10.
+# Numbers on the command line are decimal, as in scene files: CLI11 alone read "--spp 0x10" as
+# 16 passes, "--seed 010" as seed 8 (octal), " 5" as 5 and "--exposure 0x1p2" as 4. Every
+# subcommand's and daemon's numeric options refuse the other spellings (through expect_error.sh:
+# exit 1, the option and the value named), and leading zeros are decimal: --spp 017 --seed 010
+# gives the bytes of --spp 17 --seed 10.
 # Usage: decimal_options.sh ALPHORN COORDINATOR WORKER EXPECT_ERROR SCENES_DIR
 set -eu
 alphorn=$1
@@ -57,6 +57,20 @@ refused "$coordinator" --max-blob-bytes 18446744073709551616 "${daemon_files[@]}
 "$expect_error" "$alphorn" "--crop 0,0,4294967297,1: expected X0,Y0,X1,Y1" \
   -- render "$scene" --size 8x8 --crop 0,0,4294967297,1 >"$out/log" || { cat "$out/log"; fail "--crop"; }
 echo "ok   sizes and --crop refuse the other spellings"
+# Fractional options: decimal notation with an optional exponent; strtold also took hex floats,
+# a '+' and spaces (nan and inf are refused as not finite: cli.bad_input's *_nan tests).
+for value in 0x1p2 +2 " 2" "2 " . 1e 1.5e+ 2,5 0x; do
+  refused "$alphorn" --exposure "$value" render "$scene" --exposure "$value"
+done
+refused "$alphorn" --time-limit 0x10 render "$scene" --time-limit 0x10
+refused "$alphorn" --reconnect-seconds 0x3 status --reconnect-seconds 0x3
+refused "$coordinator" --lease-seconds 0x5 "${daemon_files[@]}" --lease-seconds 0x5
+refused "$worker" --drain-seconds +5 "${worker_files[@]}" --drain-seconds +5
+for value in 0.5 -1.5 2e-1 .5 3. 1E0; do
+  timeout 60 "$alphorn" render "$scene" -o "$out/frac.exr" --size 8x8 --spp 1 --exposure "$value" \
+    2>"$out/frac.log" || { cat "$out/frac.log"; fail "--exposure $value was refused"; }
+done
+echo "ok   fractional options take decimal notation, with exponents"
 
 render() {  # name, arguments
   local name=$1

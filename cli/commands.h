@@ -2,7 +2,7 @@
 // and returns the function that runs it, giving the process exit code.
 #pragma once
 
-#include "common/farm/finite_option.h"
+#include "common/farm/number_options.h"
 
 #include <CLI/CLI.hpp>
 

@@ -2,9 +2,9 @@
 // units to workers, merges their results exactly and checkpoints every job, so that a restart
 // on the same --state-dir resumes everything. See docs/operations.md.
 #include "common/farm/files.h"
-#include "common/farm/finite_option.h"
 #include "common/farm/http_server.h"
 #include "common/farm/metrics.h"
+#include "common/farm/number_options.h"
 #include "common/farm/rpc.h"
 #include "coordinator/coordinator.h"
 #include "coordinator/dashboard.h"

@@ -1,9 +1,9 @@
 // alphorn-worker: renders units leased from an alphorn-coordinator. See docs/operations.md.
 #include "common/farm/files.h"
-#include "common/farm/finite_option.h"
 #include "common/farm/http_server.h"
 #include "common/farm/log.h"
 #include "common/farm/metrics.h"
+#include "common/farm/number_options.h"
 #include "common/farm/rpc.h"
 #include "worker/worker.h"
 

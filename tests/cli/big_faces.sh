@@ -6,6 +6,7 @@
 # Usage: big_faces.sh ALPHORN EXPECT_ERROR VERTICES FACES EXPECTED
 # EXPECTED may name $dir (the folder of the generated files).
 set -eu
+source "$(dirname "$0")/big_faces_lib.sh"
 alphorn=$1
 expect_error=$2
 vertices=$3
@@ -13,14 +14,7 @@ faces=$4
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 expected=${5//\$dir/$dir}
-awk -v n="$vertices" -v faces="$faces" 'BEGIN {
-  for (i = 0; i < n; i++) printf "v %.6f %.6f 0\n", cos(6.283185307 * i / n), sin(6.283185307 * i / n)
-  for (k = 0; k < faces; k++) {
-    printf "f"
-    for (i = 1; i <= n; i++) printf " %d", i
-    printf "\n"
-  }
-}' >"$dir/big_faces.obj"
+write_big_faces_obj "$vertices" "$faces" "$dir/big_faces.obj"
 cat >"$dir/big_faces.xml" <<'XML'
 <scene>
   <integrator type="normals"/>

@@ -6,19 +6,13 @@
 # refused, at its <mesh>, with the figures (through expect_error.sh: exit 1, no hang).
 # Usage: big_faces_files.sh ALPHORN EXPECT_ERROR
 set -eu
+source "$(dirname "$0")/big_faces_lib.sh"
 alphorn=$1
 expect_error=$2
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 fail() { echo "FAIL: $*"; exit 1; }
-awk -v n=4096 -v faces=8 'BEGIN {
-  for (i = 0; i < n; i++) printf "v %.6f %.6f 0\n", cos(6.283185307 * i / n), sin(6.283185307 * i / n)
-  for (k = 0; k < faces; k++) {
-    printf "f"
-    for (i = 1; i <= n; i++) printf " %d", i
-    printf "\n"
-  }
-}' >"$dir/faces_1.obj"
+write_big_faces_obj 4096 8 "$dir/faces_1.obj"
 cp "$dir/faces_1.obj" "$dir/faces_2.obj"
 cp "$dir/faces_1.obj" "$dir/faces_3.obj"
 scene() {  # name, the OBJ files of its meshes

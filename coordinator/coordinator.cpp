@@ -28,6 +28,10 @@ using Kind = FarmError::Kind;
 
 namespace {
 
+// While a job's checkpoints keep failing with the same error, checkpoint.failed is logged this
+// often (and on the first failure and every new error).
+constexpr double kCheckpointFailureLogSeconds = 60.0;
+
 uint64_t randomLeaseBase() {
     // Lease ids start at a random point so that ids from a previous coordinator process never
     // match a lease of this one.
@@ -892,11 +896,10 @@ void Coordinator::finishJob(Job& job) {
     // The final film is on disk before the job is reported done.
     bool written = false;
     try {
-        writeJobCheckpoint(job, copy);
+        writeJobCheckpoint(job, copy, true);
         written = true;
-    } catch (const std::exception& e) {
-        logWarning("checkpoint.failed",
-                   {field("job", job.id), field("final", "yes"), field("error", e.what())});
+    } catch (const std::exception&) {
+        // Logged by writeJobCheckpoint; the next checkpoint round tries again.
     }
     std::lock_guard lock(m_mutex);
     if (written && job.state == v1::JOB_STATE_RUNNING) {
@@ -910,7 +913,7 @@ void Coordinator::finishJob(Job& job) {
     job.completing = false;
 }
 
-void Coordinator::writeJobCheckpoint(Job& job, const JobFilm::Copy& copy) {
+void Coordinator::writeJobCheckpoint(Job& job, const JobFilm::Copy& copy, bool final) {
     std::lock_guard writeLock(job.film->writeMutex());
     {
         std::lock_guard lock(m_mutex);
@@ -923,11 +926,26 @@ void Coordinator::writeJobCheckpoint(Job& job, const JobFilm::Copy& copy) {
         if (m_durableWriteHooks.after) m_durableWriteHooks.after();
     } catch (const std::exception& e) {
         std::lock_guard lock(m_mutex);
+        // The first failure, a new error, and then once a minute: retries follow every
+        // checkpoint interval, and a disk that stays broken would fill the log.
+        const bool newError = job.film->checkpointError() != e.what();
+        ++job.checkpointFailures;
+        if (newError || job.checkpointFailures == 1 ||
+            start - job.checkpointFailureLoggedAt >= kCheckpointFailureLogSeconds) {
+            logWarning("checkpoint.failed",
+                       {field("job", job.id), field("final", final ? "yes" : "no"),
+                        field("attempts", job.checkpointFailures), field("error", e.what())});
+            job.checkpointFailureLoggedAt = start;
+        }
         job.film->checkpointFailed(e.what());
         changedLocked(job);
         throw;
     }
     std::lock_guard lock(m_mutex);
+    if (job.checkpointFailures > 0)
+        logInfo("checkpoint.recovered",
+                {field("job", job.id), field("failed_attempts", job.checkpointFailures)});
+    job.checkpointFailures = 0;
     job.film->checkpointWritten(copy.count);
     eventLocked(job, v1::JOB_EVENT_CHECKPOINTED,
                 absl::StrFormat("%u of %u units", copy.count, job.grid.unitCount()));
@@ -963,10 +981,9 @@ int Coordinator::checkpointDirtyJobs() {
             copy = job->film->copy();
         }
         try {
-            writeJobCheckpoint(*job, copy);
-        } catch (const std::exception& e) {
-            logWarning("checkpoint.failed", {field("job", job->id), field("error", e.what())});
-            ++failed;
+            writeJobCheckpoint(*job, copy, false);
+        } catch (const std::exception&) {
+            ++failed;  // logged by writeJobCheckpoint
         }
     }
     return failed;

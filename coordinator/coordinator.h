@@ -225,6 +225,10 @@ class Coordinator {
         uint64_t raysMergedThisRun = 0;
         EventLog events;
         bool deleted = false;  // removed by a client; no checkpoint may be written any more
+        // Checkpoint writes failed in a row, and when the last checkpoint.failed line was
+        // logged (monotonic): a disk that stays broken is said once a minute, not every retry.
+        uint32_t checkpointFailures = 0;
+        double checkpointFailureLoggedAt = 0;
         // Bumped on every change its status shows (changedLocked); WatchJob waits on it.
         std::shared_ptr<ChangeSignal> changes = std::make_shared<ChangeSignal>();
     };
@@ -244,8 +248,9 @@ class Coordinator {
     void expireLeases();
     // Returns how many running jobs' checkpoints could not be written.
     int checkpointDirtyJobs();
-    // Writes `copy` unless a newer checkpoint of the job exists already.
-    void writeJobCheckpoint(Job& job, const JobFilm::Copy& copy);
+    // Writes `copy` unless a newer checkpoint of the job exists already (`final`: the job's last,
+    // after every unit merged). Logs a failure (rate-limited) and throws it.
+    void writeJobCheckpoint(Job& job, const JobFilm::Copy& copy, bool final);
     // Called without m_mutex held once every unit is merged: writes the final checkpoint, then
     // ends the job DONE. When the write fails the job stays running with the error shown, and
     // the background thread (or stop()) tries again.

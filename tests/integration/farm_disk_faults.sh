@@ -141,6 +141,14 @@ pass "EROFS: a finished job's EXR and PNG fetched, byte-identical"
 [[ $(job_field "${jobs[2]}" priority) == 3 ]] || fail "the priority asked for during the fault is not the job's"
 grep -q "event=checkpoint.failed.*Input/output error" "$WORK/coordinator.log" ||
     fail "the coordinator did not log its failed checkpoints"
+# Checkpoints are retried every 0.3 s here, dozens of times over the episodes; the log says a
+# job's failure once per error (then once a minute) and its recovery with the count: at most
+# 3 jobs x 3 episodes (EIO, EROFS, EIO after the restart) lines. Logging every retry gave 14.
+failed_lines=$(grep -c "event=checkpoint.failed" "$WORK/coordinator.log")
+((failed_lines <= 9)) || fail "checkpoint.failed logged $failed_lines times: once per job and error is enough"
+grep -qE "event=checkpoint.recovered job=[0-9]+ failed_attempts=([3-9]|[1-9][0-9])" "$WORK/coordinator.log" ||
+    fail "no checkpoint.recovered after several failed attempts: $(grep "checkpoint.recovered" "$WORK/coordinator.log")"
+pass "failed checkpoints logged $failed_lines times in all, and their recovery with the count"
 kill -0 "$worker_a" 2>/dev/null || fail "worker a died: $(tail -n3 "$WORK/worker-a.log")"
 kill -0 "$worker_b" 2>/dev/null || fail "worker b died: $(tail -n3 "$WORK/worker-b.log")"
 pass "both workers alive"

@@ -270,6 +270,9 @@ static int runRender(const RenderOptions& options) {
             "--passes %u, %.1f s)\n",
             interrupted ? "interrupted" : "time limit reached", passesDone, settings.passes, output,
             pngPathFor(output), passesDone, passesDone, seconds);
+    else
+        std::cerr << absl::StrFormat("wrote %s and %s (%d passes, %.1f s)\n", output,
+                                     pngPathFor(output), passesDone, seconds);
     // The limit is looked at between passes only (a pass stopped halfway would have to be taken
     // out of the film): a long pass overshoots it, which the user should not have to guess.
     if (stoppedEarly && !interrupted && seconds > options.timeLimit + kTimeLimitSlackSeconds)
@@ -277,9 +280,6 @@ static int runRender(const RenderOptions& options) {
             "note: the time limit (%g s) is looked at between passes; the pass running when it "
             "passed was finished first, %.1f s after it\n",
             options.timeLimit, seconds - options.timeLimit);
-    else
-        std::cerr << absl::StrFormat("wrote %s and %s (%d passes, %.1f s)\n", output,
-                                     pngPathFor(output), passesDone, seconds);
     std::cerr << finalEstimateText(finalStatus, settings.targetError, settings.passes) << "\n";
     return interrupted ? kExitInterrupted : kExitOk;
 }

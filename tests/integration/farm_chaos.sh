@@ -84,16 +84,15 @@ free_disk() {
 # disk, then I/O errors (EIO), then a full disk, then a read-only file system (EROFS), ...
 disk_episodes=0
 disk_episode() {  # disk_episode SECONDS: sets `what`
-    local held=$1
-    case $((disk_episodes++ % 4)) in
+    local held=$1 turn=$((disk_episodes++ % 4)) error=EIO
+    ((turn == 3)) && error=EROFS
+    case $turn in
         0 | 2)
             fill_disk
             sleep "$held"
             free_disk
             what="state directory full for $held s, freed" ;;
         1 | 3)
-            local error=EIO
-            ((disk_episodes % 4 == 0)) && error=EROFS
             echo "$error" >"$WORK/disk-fault"
             sleep "$held"
             rm -f "$WORK/disk-fault"

@@ -38,6 +38,39 @@ TEST(GaussianFilter, WeightsAreExactlyTheShiftedGaussian) {
     }
 }
 
+// The film weighs taps by the filter's table: eval at the centre of the bin of width radius / 256
+// that holds |x|, the same on both sides, the last bin's value up to the radius itself, and
+// within the filter's variation over one bin of eval(x) (a table off by one bin, or sampled at
+// the bins' edges, fails).
+TEST(Filters, TapsAreWeighedByTheTabulatedFilter) {
+    for (const std::string type : {"gaussian", "mitchell", "box", "tent"}) {
+        PropertyList props("test");
+        if (type == "mitchell") props.setFloat("radius", 2.5f);
+        const auto filter = std::static_pointer_cast<ReconstructionFilter>(
+            ObjectFactory::create(ObjectKind::Filter, type, props));
+        const float radius = filter->radius();
+        const float bin = radius / static_cast<float>(ReconstructionFilter::kTableSize);
+        for (int i = 0; i < ReconstructionFilter::kTableSize; ++i) {
+            const float centre = (static_cast<float>(i) + 0.5f) * bin;
+            const float expected = filter->eval(centre);
+            for (const float x : {centre, (static_cast<float>(i) + 0.05f) * bin,
+                                  (static_cast<float>(i) + 0.95f) * bin}) {
+                ASSERT_EQ(filter->weight(x), expected) << type << " bin " << i << " x " << x;
+                ASSERT_EQ(filter->weight(-x), expected) << type << " bin " << i << " x " << -x;
+            }
+        }
+        EXPECT_EQ(filter->weight(radius), filter->eval(radius - 0.5f * bin)) << type;
+        // Within the filter's change across one bin of the exact value (the box has none).
+        if (type == "box") continue;
+        for (int i = 0; i <= 1000; ++i) {
+            const float x = radius * static_cast<float>(i) / 1000.0f;
+            const float slope = std::max(std::abs(filter->eval(x + bin) - filter->eval(x)),
+                                         std::abs(filter->eval(x) - filter->eval(x - bin)));
+            EXPECT_LE(std::abs(filter->weight(x) - filter->eval(x)), slope) << type << " " << x;
+        }
+    }
+}
+
 // Creating the filter of `type` with the float parameters given must fail, naming where it was
 // written and every fragment.
 void expectRefused(const std::string& type,

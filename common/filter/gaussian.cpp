@@ -23,9 +23,9 @@ class GaussianFilter : public ReconstructionFilter {
                        kMaxStddevPerRadius, m_radius);
         m_alpha = -1.0f / (2.0f * stddev * stddev);
         m_valueAtRadius = std::exp(m_alpha * m_radius * m_radius);
+        tabulate();
     }
-    // The same float operations as evaluating both exponentials per call, the constant one
-    // done once: every sample evaluates the filter at up to 30 offsets.
+    // The constant exponential is computed once.
     float eval(float x) const override {
         return std::max(0.0f, std::exp(m_alpha * x * x) - m_valueAtRadius);
     }

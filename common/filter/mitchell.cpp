@@ -10,6 +10,7 @@ class MitchellNetravaliFilter : public ReconstructionFilter {
         m_radius = validatedRadius(props, 2.0f);
         m_B = parameter(props, "B");
         m_C = parameter(props, "C");
+        tabulate();
     }
     float eval(float x) const override {
         x = std::abs(2.0f * x / m_radius);

@@ -18,4 +18,11 @@ float ReconstructionFilter::validatedRadius(const PropertyList& props, float def
     return radius;
 }
 
+void ReconstructionFilter::tabulate() {
+    m_binsPerUnit = static_cast<float>(kTableSize) / m_radius;
+    for (int i = 0; i < kTableSize; ++i)
+        m_table[i] =
+            eval((static_cast<float>(i) + 0.5f) * m_radius / static_cast<float>(kTableSize));
+}
+
 }  // namespace alphorn

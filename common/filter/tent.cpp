@@ -5,7 +5,10 @@ namespace alphorn {
 
 class TentFilter : public ReconstructionFilter {
   public:
-    explicit TentFilter(const PropertyList&) { m_radius = 1.0f; }
+    explicit TentFilter(const PropertyList&) {
+        m_radius = 1.0f;
+        tabulate();
+    }
     float eval(float x) const override { return std::max(0.0f, 1.0f - std::abs(x)); }
 };
 

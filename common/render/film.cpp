@@ -54,8 +54,8 @@ FilmBlock FilmBlock::smallerRadiusFilm() const {
 namespace {
 
 // Calls f(x, y) for every pixel the two blocks share.
-template <typename F>
-void forOverlap(const FilmBlock& a, const FilmBlock& b, F&& f) {
+template <typename Other, typename F>
+void forOverlap(const FilmBlock& a, const Other& b, F&& f) {
     const int xBegin = std::max(a.x0(), b.x0()),
               xEnd = std::min(a.x0() + a.width(), b.x0() + b.width());
     const int yBegin = std::max(a.y0(), b.y0()),
@@ -101,6 +101,24 @@ void FilmBlock::addPassesOfParity(const FilmBlock& samples, bool oddPasses) {
             smallerRadiusAt(x, y) += samples.smallerRadiusAt(x, y);
             if (oddPasses && keepsHalves())
                 smallerRadiusOddAt(x, y) += samples.smallerRadiusAt(x, y);
+        });
+    invalidSamples += samples.invalidSamples;
+}
+
+void FilmBlock::addPassesOfParity(const ScratchBlock& samples, bool oddPasses) {
+    if (keepsSmallerRadius() && !samples.keepsSmallerRadius())
+        fail("cannot add samples without the smaller radius's sums into a film that keeps them");
+    const bool odd = oddPasses && keepsHalves();
+    forOverlap(*this, samples, [&](int x, int y) {
+        const PixelSum sum = samples.total(x, y);
+        at(x, y) += sum;
+        if (odd) oddAt(x, y) += sum;
+    });
+    if (keepsSmallerRadius())
+        forOverlap(*this, samples, [&](int x, int y) {
+            const PixelSum sum = samples.smallerRadiusTotal(x, y);
+            smallerRadiusAt(x, y) += sum;
+            if (odd) smallerRadiusOddAt(x, y) += sum;
         });
     invalidSamples += samples.invalidSamples;
 }
@@ -170,8 +188,8 @@ namespace {
 
 // Calls addTap(x, y, w) for every pixel of the block within the filter's reach with a nonzero
 // weight w.
-template <typename AddTap>
-void forEachTap(const FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
+template <typename Block, typename AddTap>
+void forEachTap(const Block& block, const ReconstructionFilter& filter, const Point2f& position,
                 AddTap&& addTap) {
     const float radius = filter.radius();
     const float px = position.x() - 0.5f, py = position.y() - 0.5f;
@@ -182,14 +200,17 @@ void forEachTap(const FilmBlock& block, const ReconstructionFilter& filter, cons
     // The filter's radius is at most 7 pixels (rfilter.cpp), so a row has at most 15 taps.
     float wx[16];
     const int nx = std::min(16, xEnd - xBegin + 1);
-    for (int i = 0; i < nx; ++i) wx[i] = filter.eval(static_cast<float>(xBegin + i) - px);
-    for (int y = yBegin; y <= yEnd; ++y) {
-        const float wy = filter.eval(static_cast<float>(y) - py);
-        for (int i = 0; i < nx; ++i) {
-            const int x = xBegin + i;
+    for (int i = 0; i < nx; ++i) wx[i] = filter.weight(static_cast<float>(xBegin + i) - px);
+    // Only the taps inside the block.
+    const int iBegin = std::max(0, block.x0() - xBegin);
+    const int iEnd = std::min(nx, block.x0() + block.width() - xBegin);
+    const int yFirst = std::max(yBegin, block.y0());
+    const int yLast = std::min(yEnd, block.y0() + block.height() - 1);
+    for (int y = yFirst; y <= yLast; ++y) {
+        const float wy = filter.weight(static_cast<float>(y) - py);
+        for (int i = iBegin; i < iEnd; ++i) {
             const float w = wx[i] * wy;
-            if (w == 0.0f || !block.contains(x, y)) continue;
-            addTap(x, y, w);
+            if (w != 0.0f) addTap(xBegin + i, y, w);
         }
     }
 }
@@ -211,18 +232,51 @@ struct SplatValue {
 };
 
 // The taps of samples at or above kFixedPointSampleLimit: rare, kept out of the inlined path.
-[[gnu::noinline]] void addBrightTap(PixelSum& sum, double w, const Color3f& value) {
+[[gnu::noinline]] void addBrightTap(PixelSum& sum, double w, const Color3f& value,
+                                    SampleWeight weight) {
     for (int c = 0; c < 3; ++c) sum.rgb[c] += toFixedPoint(w * double(value[c]));
+    if (weight == SampleWeight::Counted) sum.weight += roundToInt64(w * kFixedPointScale);
 }
 
 inline void addTap(PixelSum& sum, float w, const SplatValue& value, SampleWeight weight) {
     const double wd = w;
-    if (value.fitsInt64) [[likely]] {
-        for (int c = 0; c < 3; ++c) sum.rgb[c] += roundToInt64(wd * value.scaled[c]);
-    } else {
-        addBrightTap(sum, wd, value.value);
-    }
+    if (!value.fitsInt64) [[unlikely]]
+        return addBrightTap(sum, wd, value.value, weight);
+    for (int c = 0; c < 3; ++c) sum.rgb[c] += roundToInt64(wd * value.scaled[c]);
     if (weight == SampleWeight::Counted) sum.weight += roundToInt64(wd * kFixedPointScale);
+}
+
+// A tap the 64-bit sums cannot take, into the overflow's 128-bit sums: rare, out of line.
+[[gnu::noinline]] void addOverflowTap(ScratchBlock& block, bool smallerRadius, int x, int y,
+                                      double w, const Color3f& value, SampleWeight weight) {
+    FilmBlock& overflow = block.overflow();
+    PixelSum& sum = smallerRadius ? overflow.smallerRadiusAt(x, y) : overflow.at(x, y);
+    for (int c = 0; c < 3; ++c) sum.rgb[c] += toFixedPoint(w * double(value[c]));
+    if (weight == SampleWeight::Counted) sum.weight += roundToInt64(w * kFixedPointScale);
+}
+
+// The tap's integers as addTap forms them; all four go to the 64-bit sums when none of those
+// overflows, else all four to the overflow (a tap is never split, so which taps overflowed
+// cannot matter: every tap is counted once either way).
+inline void addTap(ScratchBlock& block, bool smallerRadius, int x, int y, float w,
+                   const SplatValue& value, SampleWeight weight) {
+    const double wd = w;
+    if (value.fitsInt64) [[likely]] {
+        ScratchBlock::Sums& sum = smallerRadius ? block.smallerRadiusAt(x, y) : block.at(x, y);
+        int64_t tap[4], next[4];
+        for (int c = 0; c < 3; ++c) tap[c] = roundToInt64(wd * value.scaled[c]);
+        tap[3] = weight == SampleWeight::Counted ? roundToInt64(wd * kFixedPointScale) : 0;
+        bool overflows = false;
+        for (int c = 0; c < 3; ++c)
+            overflows |= __builtin_add_overflow(sum.rgb[c], tap[c], &next[c]);
+        overflows |= __builtin_add_overflow(sum.weight, tap[3], &next[3]);
+        if (!overflows) [[likely]] {
+            for (int c = 0; c < 3; ++c) sum.rgb[c] = next[c];
+            sum.weight = next[3];
+            return;
+        }
+    }
+    addOverflowTap(block, smallerRadius, x, y, wd, value.value, weight);
 }
 
 }  // namespace
@@ -250,6 +304,72 @@ void splatFilteredTwoRadii(FilmBlock& block, const ReconstructionFilter& filter,
         addTap(block.at(x, y), w, v, SampleWeight::Counted);
         addTap(block.smallerRadiusAt(x, y), w, smaller, SampleWeight::Counted);
     });
+}
+
+void splatFiltered(ScratchBlock& block, const ReconstructionFilter& filter, const Point2f& position,
+                   const Color3f& value, SampleWeight weight) {
+    const SplatValue v(value);
+    forEachTap(block, filter, position,
+               [&](int x, int y, float w) { addTap(block, false, x, y, w, v, weight); });
+}
+
+void splatFilteredSmallerRadius(ScratchBlock& block, const ReconstructionFilter& filter,
+                                const Point2f& position, const Color3f& value) {
+    const SplatValue v(value);
+    forEachTap(block, filter, position, [&](int x, int y, float w) {
+        addTap(block, true, x, y, w, v, SampleWeight::Counted);
+    });
+}
+
+void splatFilteredTwoRadii(ScratchBlock& block, const ReconstructionFilter& filter,
+                           const Point2f& position, const Color3f& value,
+                           const Color3f& smallerRadiusValue) {
+    const SplatValue v(value), smaller(smallerRadiusValue);
+    forEachTap(block, filter, position, [&](int x, int y, float w) {
+        addTap(block, false, x, y, w, v, SampleWeight::Counted);
+        addTap(block, true, x, y, w, smaller, SampleWeight::Counted);
+    });
+}
+
+ScratchBlock::ScratchBlock(SmallerRadius smallerRadius) : m_smallerRadius(smallerRadius) {}
+
+ScratchBlock::ScratchBlock(int x0, int y0, int width, int height, SmallerRadius smallerRadius)
+    : m_x0(x0),
+      m_y0(y0),
+      m_width(width),
+      m_height(height),
+      m_smallerRadius(smallerRadius),
+      m_sums(static_cast<size_t>(width) * height),
+      m_smaller(smallerRadius == SmallerRadius::Kept ? m_sums.size() : 0) {}
+
+FilmBlock& ScratchBlock::overflow() {
+    if (!m_overflow)
+        m_overflow = std::make_unique<FilmBlock>(m_x0, m_y0, m_width, m_height, PassHalves::None,
+                                                 m_smallerRadius);
+    return *m_overflow;
+}
+
+namespace {
+
+PixelSum widened(const ScratchBlock::Sums& sums) {
+    PixelSum sum;
+    for (int c = 0; c < 3; ++c) sum.rgb[c] = sums.rgb[c];
+    sum.weight = sums.weight;
+    return sum;
+}
+
+}  // namespace
+
+PixelSum ScratchBlock::total(int x, int y) const {
+    PixelSum sum = widened(m_sums[index(x, y)]);
+    if (m_overflow) sum += m_overflow->at(x, y);
+    return sum;
+}
+
+PixelSum ScratchBlock::smallerRadiusTotal(int x, int y) const {
+    PixelSum sum = widened(m_smaller[index(x, y)]);
+    if (m_overflow) sum += m_overflow->smallerRadiusAt(x, y);
+    return sum;
 }
 
 }  // namespace alphorn

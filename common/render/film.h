@@ -24,6 +24,7 @@
 #if defined(__x86_64__)
 #include <immintrin.h>
 #endif
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -94,6 +95,8 @@ enum class PassHalves : uint8_t { Kept, None };
 // (Integrator::estimatesBiasWithTwoRadii) keep them; every other film keeps its size and bytes.
 enum class SmallerRadius : uint8_t { None, Kept };
 
+class ScratchBlock;
+
 // A rectangle of pixel sums: [x0, x0 + width) x [y0, y0 + height) in image pixels. The
 // rectangle may reach outside the image (a tile plus its filter border).
 class FilmBlock {
@@ -137,6 +140,7 @@ class FilmBlock {
     // Adds the overlapping part of a block holding samples of passes of one parity only: odd
     // passes count in both the totals and the odd half, even passes in the totals only.
     void addPassesOfParity(const FilmBlock& samples, bool oddPasses);
+    void addPassesOfParity(const ScratchBlock& samples, bool oddPasses);
     void clear();
     // Copies rows [yBegin, yEnd) of every sum `from` holds; `from` has this block's rectangle
     // and layout (halves, smaller radius).
@@ -173,6 +177,54 @@ class FilmBlock {
     Sums m_smallerOdd;  // empty unless both are kept
 };
 
+// A thread's scratch sums, added into a FilmBlock when its work is done: the same exact sums in
+// half the memory and about half the instructions per tap. A tap below kFixedPointSampleLimit
+// is a 64-bit integer, and so are the sums of such taps until one would overflow; that tap, and
+// every tap of a brighter sample, goes to a block of 128-bit sums beside (made on first use), so
+// nothing is rounded or lost and the total is the FilmBlock's to the bit. Passes of one parity
+// only, as a thread renders them (FilmBlock::addPassesOfParity).
+class ScratchBlock {
+  public:
+    ScratchBlock() = default;
+    // An empty block that adds nothing (a parity the unit has no pass of).
+    explicit ScratchBlock(SmallerRadius smallerRadius);
+    ScratchBlock(int x0, int y0, int width, int height, SmallerRadius smallerRadius);
+
+    bool contains(int x, int y) const {
+        return x >= m_x0 && y >= m_y0 && x < m_x0 + m_width && y < m_y0 + m_height;
+    }
+    bool keepsSmallerRadius() const { return m_smallerRadius == SmallerRadius::Kept; }
+
+    struct Sums {
+        int64_t rgb[3] = {0, 0, 0};
+        int64_t weight = 0;
+    };
+    Sums& at(int x, int y) { return m_sums[index(x, y)]; }
+    Sums& smallerRadiusAt(int x, int y) { return m_smaller[index(x, y)]; }
+    // The 128-bit sums of the taps the 64-bit ones could not take (made on first use).
+    FilmBlock& overflow();
+    // The sums of (x, y), exactly, as a FilmBlock's pixel: the 64-bit sums plus the overflow.
+    PixelSum total(int x, int y) const;
+    PixelSum smallerRadiusTotal(int x, int y) const;
+
+    int x0() const { return m_x0; }
+    int y0() const { return m_y0; }
+    int width() const { return m_width; }
+    int height() const { return m_height; }
+
+    // Samples rejected as NaN, infinite, negative or beyond the fixed-point range (never clamped).
+    uint64_t invalidSamples = 0;
+
+  private:
+    size_t index(int x, int y) const { return size_t(y - m_y0) * m_width + size_t(x - m_x0); }
+
+    int m_x0 = 0, m_y0 = 0, m_width = 0, m_height = 0;
+    SmallerRadius m_smallerRadius = SmallerRadius::None;
+    std::vector<Sums> m_sums;
+    std::vector<Sums> m_smaller;  // empty unless the smaller radius is kept
+    std::unique_ptr<FilmBlock> m_overflow;
+};
+
 class ReconstructionFilter;
 
 // What a filtered sample adds to the pixels' weights: a camera sample counts its filter weight;
@@ -192,6 +244,15 @@ void splatFilteredSmallerRadius(FilmBlock& block, const ReconstructionFilter& fi
 // A camera sample into both: splatFiltered(value, Counted) and splatFilteredSmallerRadius(
 // smallerRadiusValue), the filter evaluated once.
 void splatFilteredTwoRadii(FilmBlock& block, const ReconstructionFilter& filter,
+                           const Point2f& position, const Color3f& value,
+                           const Color3f& smallerRadiusValue);
+
+// The same into a thread's scratch block.
+void splatFiltered(ScratchBlock& block, const ReconstructionFilter& filter, const Point2f& position,
+                   const Color3f& value, SampleWeight weight);
+void splatFilteredSmallerRadius(ScratchBlock& block, const ReconstructionFilter& filter,
+                                const Point2f& position, const Color3f& value);
+void splatFilteredTwoRadii(ScratchBlock& block, const ReconstructionFilter& filter,
                            const Point2f& position, const Color3f& value,
                            const Color3f& smallerRadiusValue);
 

@@ -101,7 +101,7 @@ bool isValidSample(const Color3f& value) {
 }
 
 // A camera sample into the block; rejected samples are counted, never clamped.
-void splat(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
+void splat(ScratchBlock& block, const ReconstructionFilter& filter, const Point2f& position,
            const Color3f& value) {
     if (!isValidSample(value)) {
         ++block.invalidSamples;
@@ -113,7 +113,7 @@ void splat(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& 
 // A camera sample at both radii. The pass radius's sums are exactly splat()'s; a sample invalid
 // at the smaller radius only is left out of its sums (they carry their own weights) and not
 // counted: invalidSamples counts the image's samples.
-void splatTwoRadii(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
+void splatTwoRadii(ScratchBlock& block, const ReconstructionFilter& filter, const Point2f& position,
                    const TwoRadiiRadiance& value) {
     const bool smallerValid = isValidSample(value.atSmallerRadius);
     if (!isValidSample(value.atPassRadius)) {
@@ -156,15 +156,15 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
     // thread took which rows, cannot change the result. A thread keeps even and odd passes in
     // separate blocks, so a sample is splatted into one sum only, whatever `out` keeps.
     struct ThreadFilm {
-        FilmBlock passesOfParity[2];  // [0]: even passes, [1]: odd passes
+        ScratchBlock passesOfParity[2];  // [0]: even passes, [1]: odd passes
         std::unique_ptr<Sampler> sampler;
     };
     tbb::enumerable_thread_specific<ThreadFilm> threadFilms([&] {
         const bool bothParities = passes > 1;
         const auto block = [&](bool used) {
-            return used ? FilmBlock(out.x0(), out.y0(), out.width(), out.height(), PassHalves::None,
-                                    scratchSmallerRadius)
-                        : FilmBlock(0, 0, 0, 0, PassHalves::None, scratchSmallerRadius);
+            return used ? ScratchBlock(out.x0(), out.y0(), out.width(), out.height(),
+                                       scratchSmallerRadius)
+                        : ScratchBlock(scratchSmallerRadius);
         };
         const bool firstIsOdd = unit.passBegin % 2 == 1;
         return ThreadFilm{{block(bothParities || !firstIsOdd), block(bothParities || firstIsOdd)},
@@ -185,7 +185,7 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
                 const uint32_t pass = unit.passBegin + static_cast<uint32_t>(passOffset);
                 const int y = tile.y0 + static_cast<int>(item % rows);
                 const PassData* data = passData[passOffset].get();
-                FilmBlock& local = threadFilm.passesOfParity[pass % 2];
+                ScratchBlock& local = threadFilm.passesOfParity[pass % 2];
                 for (int x = tile.x0; x < tile.x1; ++x) {
                     const uint64_t pixelIndex = static_cast<uint64_t>(y) * width + x;
                     sampler->startStream(seed, pass, pixelIndex, StreamPurpose::Camera);

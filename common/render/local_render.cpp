@@ -80,11 +80,8 @@ FilmBlock renderLocal(const Scene& scene, const RenderSettings& settings,
         // Pass data (photon maps) is built once and shared by every tile of these passes.
         const auto passData = preparePasses(scene, settings.seed, begin, end);
         tbb::parallel_for(size_t(0), running.size(), [&](size_t i) {
-            RenderUnit unit{begin, end, running[i].tile};
-            FilmBlock block = grid.block(unit.tile);
-            renderUnit(scene, settings.seed, unit, passData, block, &counters);
-            std::lock_guard lock(filmMutex);
-            film.add(block);
+            const RenderUnit unit{begin, end, running[i].tile};
+            renderUnit(scene, settings.seed, unit, passData, film, &counters, nullptr, &filmMutex);
         });
         status.passesDone = end;
         status.samplesDone = counters.samples.load();

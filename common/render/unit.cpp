@@ -131,7 +131,7 @@ void splatTwoRadii(ScratchBlock& block, const ReconstructionFilter& filter, cons
 
 bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
                 const std::vector<std::shared_ptr<const PassData>>& passData, FilmBlock& out,
-                RenderCounters* counters, const std::atomic<bool>* cancel) {
+                RenderCounters* counters, const std::atomic<bool>* cancel, std::mutex* outLock) {
     failUnlessTraceable(scene);
     const Camera& camera = *scene.camera();
     const Integrator& integrator = *scene.integrator();
@@ -149,6 +149,8 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
     if (twoRadii && !integrator.estimatesBiasWithTwoRadii())
         fail("renderUnit: the film keeps a smaller radius's image this integrator does not make");
     const SmallerRadius scratchSmallerRadius = twoRadii ? SmallerRadius::Kept : SmallerRadius::None;
+    // The pixels the unit's samples reach: its block.
+    const Tile reach = grownTile(tile, filterBorder(scene));
 
     // Work items are (pass, row) pairs. Each thread renders into blocks of its own, made once
     // per unit (a block per task cost a sixth of a Cornell box render in allocation and adding),
@@ -162,7 +164,7 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
     tbb::enumerable_thread_specific<ThreadFilm> threadFilms([&] {
         const bool bothParities = passes > 1;
         const auto block = [&](bool used) {
-            return used ? ScratchBlock(out.x0(), out.y0(), out.width(), out.height(),
+            return used ? ScratchBlock(reach.x0, reach.y0, reach.width(), reach.height(),
                                        scratchSmallerRadius)
                         : ScratchBlock(scratchSmallerRadius);
         };
@@ -214,24 +216,28 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
                 counters->rays += raysTracedByThisThread() - raysBefore;
             }
         });
-    for (const ThreadFilm& threadFilm : threadFilms)
-        for (int parity = 0; parity < 2; ++parity)
-            out.addPassesOfParity(threadFilm.passesOfParity[parity], parity == 1);
+    if (cancelled) return false;
     // Light paths splat onto the whole image (bidirectional integrators): each unit adds the
     // part on its own tile, into the half of each pass's parity.
-    if (!cancelled && integrator.hasPassSplats()) {
+    FilmBlock splats[2];
+    if (integrator.hasPassSplats()) {
         // The integrator adds its splats to the smaller radius's image too when kept.
-        FilmBlock splats[2] = {FilmBlock(out.x0(), out.y0(), out.width(), out.height(),
-                                         PassHalves::None, scratchSmallerRadius),
-                               FilmBlock(out.x0(), out.y0(), out.width(), out.height(),
-                                         PassHalves::None, scratchSmallerRadius)};
+        for (FilmBlock& block : splats)
+            block = FilmBlock(reach.x0, reach.y0, reach.width(), reach.height(), PassHalves::None,
+                              scratchSmallerRadius);
         for (size_t i = 0; i < passes; ++i)
             integrator.addPassSplats(passData[i].get(), tile.x0, tile.y0, tile.x1, tile.y1,
                                      splats[(unit.passBegin + i) % 2]);
+    }
+    std::unique_lock<std::mutex> lock;
+    if (outLock) lock = std::unique_lock(*outLock);
+    for (const ThreadFilm& threadFilm : threadFilms)
+        for (int parity = 0; parity < 2; ++parity)
+            out.addPassesOfParity(threadFilm.passesOfParity[parity], parity == 1);
+    if (integrator.hasPassSplats())
         for (int parity = 0; parity < 2; ++parity)
             out.addPassesOfParity(splats[parity], parity == 1);
-    }
-    return !cancelled;
+    return true;
 }
 
 }  // namespace alphorn

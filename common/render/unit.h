@@ -6,6 +6,7 @@
 #include "common/render/film.h"
 
 #include <atomic>
+#include <mutex>
 
 namespace alphorn {
 
@@ -84,12 +85,15 @@ struct RenderCounters {
 std::vector<std::shared_ptr<const PassData>> preparePasses(const Scene& scene, uint64_t seed,
                                                            uint32_t begin, uint32_t end);
 
-// Renders `unit` and adds its samples into `out` (the unit's block: makeUnitBlock, or the block
-// of the scene's TileGrid).
-// passData[i] belongs to pass unit.passBegin + i. Returns false if cancelled midway, in which
-// case `out` holds a partial result that must be discarded.
+// Renders `unit` and adds its samples into `out`: the unit's block (makeUnitBlock, or the block
+// of the scene's TileGrid), or, given `outLock`, a film that holds that block's pixels and that
+// other units add to at the same time (the lock is held while adding; a local render's image
+// film, which saves a block per unit and adding it once more).
+// passData[i] belongs to pass unit.passBegin + i. Returns false if cancelled midway, leaving
+// `out` as it was.
 bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
                 const std::vector<std::shared_ptr<const PassData>>& passData, FilmBlock& out,
-                RenderCounters* counters = nullptr, const std::atomic<bool>* cancel = nullptr);
+                RenderCounters* counters = nullptr, const std::atomic<bool>* cancel = nullptr,
+                std::mutex* outLock = nullptr);
 
 }  // namespace alphorn

@@ -71,13 +71,12 @@ inline LightSample sampleLight(const Scene& scene, Sampler& sampler, const Point
     return light;
 }
 
-// One sample of direct illumination at `its` from a uniformly chosen emitter, with visibility.
-// wiLocal points back towards the previous vertex. With `mis`, the result carries the balance
-// heuristic weight against BSDF sampling (delta lights keep weight 1: BSDF sampling cannot
-// reach them). Draws what sampleLight() draws.
-inline Color3f sampleDirect(const Scene& scene, Sampler& sampler, const Intersection& its,
-                            const BSDF& bsdf, const Vector3f& wiLocal, bool mis) {
-    const LightSample light = sampleLight(scene, sampler, its.p);
+// The direct illumination at `its` that the light sample `light` (sampleLight() from its.p)
+// carries, with visibility; `wiLocal` and `mis` as for sampleDirect(). A path tracer samples the
+// light, then its next bounce, then calls this: the light sample's chain of square roots and
+// divisions overlaps with the bounce's sampling instead of stalling the shadow ray.
+inline Color3f directLight(const Scene& scene, const Intersection& its, const BSDF& bsdf,
+                           const Vector3f& wiLocal, const LightSample& light, bool mis) {
     if (!light.emitter) return Color3f(0.0f);
     const EmitterQueryRecord& lRec = light.rec;
     const Color3f& radianceOverPdf = light.radianceOverPdf;
@@ -97,6 +96,15 @@ inline Color3f sampleDirect(const Scene& scene, Sampler& sampler, const Intersec
     if (mis && !light.emitter->isDelta())
         result *= balanceHeuristic(lRec.pdf * selectionPdf, bsdf.pdf(bRec));
     return result;
+}
+
+// One sample of direct illumination at `its` from a uniformly chosen emitter, with visibility.
+// wiLocal points back towards the previous vertex. With `mis`, the result carries the balance
+// heuristic weight against BSDF sampling (delta lights keep weight 1: BSDF sampling cannot
+// reach them). Draws what sampleLight() draws.
+inline Color3f sampleDirect(const Scene& scene, Sampler& sampler, const Intersection& its,
+                            const BSDF& bsdf, const Vector3f& wiLocal, bool mis) {
+    return directLight(scene, its, bsdf, wiLocal, sampleLight(scene, sampler, its.p), mis);
 }
 
 }  // namespace alphorn

@@ -41,12 +41,16 @@ Color3f tracePath(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay, 
 
         const BSDF& bsdf = *its.mesh->bsdf();
         const Vector3f wi = its.toLocal(-dir);
-        if (strategy != DirectLight::BSDFSampling && bsdf.isDiffuse())
-            result += throughput *
-                      sampleDirect(scene, sampler, its, bsdf, wi, strategy == DirectLight::MIS);
-
+        // The light sample, then the bounce, then the light's contribution (directLight says
+        // why); the sampler's numbers are drawn in that order, as sampleDirect() would.
+        const bool direct = strategy != DirectLight::BSDFSampling && bsdf.isDiffuse();
+        LightSample light(its.p);
+        if (direct) light = sampleLight(scene, sampler, its.p);
         BSDFQueryRecord bRec = makeBSDFQuery(its, wi);
         const Color3f weight = bsdf.sample(bRec, sampler.next2D());
+        if (direct)
+            result += throughput * directLight(scene, its, bsdf, wi, light,
+                                               strategy == DirectLight::MIS);
         if (weight.isBlack() || !weight.allFinite()) break;
         // Only MIS needs the density itself; the others only ask whether the bounce was delta.
         if (bRec.measure == Measure::Discrete)

@@ -49,8 +49,8 @@ Color3f tracePath(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay, 
         BSDFQueryRecord bRec = makeBSDFQuery(its, wi);
         const Color3f weight = bsdf.sample(bRec, sampler.next2D());
         if (direct)
-            result += throughput * directLight(scene, its, bsdf, wi, light,
-                                               strategy == DirectLight::MIS);
+            result +=
+                throughput * directLight(scene, its, bsdf, wi, light, strategy == DirectLight::MIS);
         if (weight.isBlack() || !weight.allFinite()) break;
         // Only MIS needs the density itself; the others only ask whether the bounce was delta.
         if (bRec.measure == Measure::Discrete)

@@ -238,7 +238,9 @@ struct SplatValue {
     if (weight == SampleWeight::Counted) sum.weight += roundToInt64(w * kFixedPointScale);
 }
 
-inline void addTap(PixelSum& sum, float w, const SplatValue& value, SampleWeight weight) {
+inline void addTap(FilmBlock& block, bool smallerRadius, int x, int y, float w,
+                   const SplatValue& value, SampleWeight weight) {
+    PixelSum& sum = smallerRadius ? block.smallerRadiusAt(x, y) : block.at(x, y);
     const double wd = w;
     if (!value.fitsInt64) [[unlikely]]
         return addBrightTap(sum, wd, value.value, weight);
@@ -281,39 +283,16 @@ inline void addTap(ScratchBlock& block, bool smallerRadius, int x, int y, float 
 
 }  // namespace
 
-void splatFiltered(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
-                   const Color3f& value, SampleWeight weight) {
-    const SplatValue v(value);
-    forEachTap(block, filter, position,
-               [&](int x, int y, float w) { addTap(block.at(x, y), w, v, weight); });
-}
-
-void splatFilteredSmallerRadius(FilmBlock& block, const ReconstructionFilter& filter,
-                                const Point2f& position, const Color3f& value) {
-    const SplatValue v(value);
-    forEachTap(block, filter, position, [&](int x, int y, float w) {
-        addTap(block.smallerRadiusAt(x, y), w, v, SampleWeight::Counted);
-    });
-}
-
-void splatFilteredTwoRadii(FilmBlock& block, const ReconstructionFilter& filter,
-                           const Point2f& position, const Color3f& value,
-                           const Color3f& smallerRadiusValue) {
-    const SplatValue v(value), smaller(smallerRadiusValue);
-    forEachTap(block, filter, position, [&](int x, int y, float w) {
-        addTap(block.at(x, y), w, v, SampleWeight::Counted);
-        addTap(block.smallerRadiusAt(x, y), w, smaller, SampleWeight::Counted);
-    });
-}
-
-void splatFiltered(ScratchBlock& block, const ReconstructionFilter& filter, const Point2f& position,
+template <typename Block>
+void splatFiltered(Block& block, const ReconstructionFilter& filter, const Point2f& position,
                    const Color3f& value, SampleWeight weight) {
     const SplatValue v(value);
     forEachTap(block, filter, position,
                [&](int x, int y, float w) { addTap(block, false, x, y, w, v, weight); });
 }
 
-void splatFilteredSmallerRadius(ScratchBlock& block, const ReconstructionFilter& filter,
+template <typename Block>
+void splatFilteredSmallerRadius(Block& block, const ReconstructionFilter& filter,
                                 const Point2f& position, const Color3f& value) {
     const SplatValue v(value);
     forEachTap(block, filter, position, [&](int x, int y, float w) {
@@ -321,7 +300,8 @@ void splatFilteredSmallerRadius(ScratchBlock& block, const ReconstructionFilter&
     });
 }
 
-void splatFilteredTwoRadii(ScratchBlock& block, const ReconstructionFilter& filter,
+template <typename Block>
+void splatFilteredTwoRadii(Block& block, const ReconstructionFilter& filter,
                            const Point2f& position, const Color3f& value,
                            const Color3f& smallerRadiusValue) {
     const SplatValue v(value), smaller(smallerRadiusValue);
@@ -330,6 +310,17 @@ void splatFilteredTwoRadii(ScratchBlock& block, const ReconstructionFilter& filt
         addTap(block, true, x, y, w, smaller, SampleWeight::Counted);
     });
 }
+
+#define ALPHORN_SPLATS_INTO(Block)                                                                \
+    template void splatFiltered(Block&, const ReconstructionFilter&, const Point2f&,              \
+                                const Color3f&, SampleWeight);                                    \
+    template void splatFilteredSmallerRadius(Block&, const ReconstructionFilter&, const Point2f&, \
+                                             const Color3f&);                                     \
+    template void splatFilteredTwoRadii(Block&, const ReconstructionFilter&, const Point2f&,      \
+                                        const Color3f&, const Color3f&);
+ALPHORN_SPLATS_INTO(FilmBlock)
+ALPHORN_SPLATS_INTO(ScratchBlock)
+#undef ALPHORN_SPLATS_INTO
 
 ScratchBlock::ScratchBlock(SmallerRadius smallerRadius) : m_smallerRadius(smallerRadius) {}
 

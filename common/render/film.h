@@ -235,24 +235,18 @@ enum class SampleWeight { Counted, NotCounted };
 // Adds a sample at image position `position` to the pixels within the filter's reach (Nori's
 // ImageBlock::put: pixel centres sit at integer + 0.5), each product rounded once to fixed
 // point. The caller rejects invalid values (NaN, infinite, negative, beyond kFixedPointLimit)
-// first.
-void splatFiltered(FilmBlock& block, const ReconstructionFilter& filter, const Point2f& position,
+// first. `Block` is a FilmBlock or a thread's ScratchBlock (the sums are the same).
+template <typename Block>
+void splatFiltered(Block& block, const ReconstructionFilter& filter, const Point2f& position,
                    const Color3f& value, SampleWeight weight);
 // The same into the smaller radius's sums (keepsSmallerRadius() must hold).
-void splatFilteredSmallerRadius(FilmBlock& block, const ReconstructionFilter& filter,
+template <typename Block>
+void splatFilteredSmallerRadius(Block& block, const ReconstructionFilter& filter,
                                 const Point2f& position, const Color3f& value);
 // A camera sample into both: splatFiltered(value, Counted) and splatFilteredSmallerRadius(
 // smallerRadiusValue), the filter evaluated once.
-void splatFilteredTwoRadii(FilmBlock& block, const ReconstructionFilter& filter,
-                           const Point2f& position, const Color3f& value,
-                           const Color3f& smallerRadiusValue);
-
-// The same into a thread's scratch block.
-void splatFiltered(ScratchBlock& block, const ReconstructionFilter& filter, const Point2f& position,
-                   const Color3f& value, SampleWeight weight);
-void splatFilteredSmallerRadius(ScratchBlock& block, const ReconstructionFilter& filter,
-                                const Point2f& position, const Color3f& value);
-void splatFilteredTwoRadii(ScratchBlock& block, const ReconstructionFilter& filter,
+template <typename Block>
+void splatFilteredTwoRadii(Block& block, const ReconstructionFilter& filter,
                            const Point2f& position, const Color3f& value,
                            const Color3f& smallerRadiusValue);
 

@@ -44,8 +44,7 @@ Color3f tracePath(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay, 
         // The light sample, then the bounce, then the light's contribution (directLight says
         // why); the sampler's numbers are drawn in that order, as sampleDirect() would.
         const bool direct = strategy != DirectLight::BSDFSampling && bsdf.isDiffuse();
-        LightSample light(its.p);
-        if (direct) light = sampleLight(scene, sampler, its.p);
+        const LightSample light = direct ? sampleLight(scene, sampler, its.p) : LightSample(its.p);
         BSDFQueryRecord bRec = makeBSDFQuery(its, wi);
         const Color3f weight = bsdf.sample(bRec, sampler.next2D());
         if (direct)

@@ -86,41 +86,49 @@ void FilmBlock::add(const FilmBlock& other) {
     invalidSamples += other.invalidSamples;
 }
 
-void FilmBlock::addPassesOfParity(const FilmBlock& samples, bool oddPasses) {
-    if (keepsSmallerRadius() && !samples.keepsSmallerRadius())
+namespace {
+
+// A pixel's sums in a block of one parity's samples, as 128-bit sums.
+const PixelSum& passSums(const FilmBlock& samples, int x, int y) {
+    return samples.at(x, y);
+}
+PixelSum passSums(const ScratchBlock& samples, int x, int y) {
+    return samples.total(x, y);
+}
+const PixelSum& smallerRadiusPassSums(const FilmBlock& samples, int x, int y) {
+    return samples.smallerRadiusAt(x, y);
+}
+PixelSum smallerRadiusPassSums(const ScratchBlock& samples, int x, int y) {
+    return samples.smallerRadiusTotal(x, y);
+}
+
+template <typename Samples>
+void addParity(FilmBlock& film, const Samples& samples, bool oddPasses) {
+    if (film.keepsSmallerRadius() && !samples.keepsSmallerRadius())
         fail("cannot add samples without the smaller radius's sums into a film that keeps them");
-    if (oddPasses && keepsHalves())
-        forOverlap(*this, samples, [&](int x, int y) {
-            at(x, y) += samples.at(x, y);
-            oddAt(x, y) += samples.at(x, y);
+    const bool odd = oddPasses && film.keepsHalves();
+    forOverlap(film, samples, [&](int x, int y) {
+        const PixelSum& sum = passSums(samples, x, y);
+        film.at(x, y) += sum;
+        if (odd) film.oddAt(x, y) += sum;
+    });
+    if (film.keepsSmallerRadius())
+        forOverlap(film, samples, [&](int x, int y) {
+            const PixelSum& sum = smallerRadiusPassSums(samples, x, y);
+            film.smallerRadiusAt(x, y) += sum;
+            if (odd) film.smallerRadiusOddAt(x, y) += sum;
         });
-    else
-        forOverlap(*this, samples, [&](int x, int y) { at(x, y) += samples.at(x, y); });
-    if (keepsSmallerRadius())
-        forOverlap(*this, samples, [&](int x, int y) {
-            smallerRadiusAt(x, y) += samples.smallerRadiusAt(x, y);
-            if (oddPasses && keepsHalves())
-                smallerRadiusOddAt(x, y) += samples.smallerRadiusAt(x, y);
-        });
-    invalidSamples += samples.invalidSamples;
+    film.invalidSamples += samples.invalidSamples;
+}
+
+}  // namespace
+
+void FilmBlock::addPassesOfParity(const FilmBlock& samples, bool oddPasses) {
+    addParity(*this, samples, oddPasses);
 }
 
 void FilmBlock::addPassesOfParity(const ScratchBlock& samples, bool oddPasses) {
-    if (keepsSmallerRadius() && !samples.keepsSmallerRadius())
-        fail("cannot add samples without the smaller radius's sums into a film that keeps them");
-    const bool odd = oddPasses && keepsHalves();
-    forOverlap(*this, samples, [&](int x, int y) {
-        const PixelSum sum = samples.total(x, y);
-        at(x, y) += sum;
-        if (odd) oddAt(x, y) += sum;
-    });
-    if (keepsSmallerRadius())
-        forOverlap(*this, samples, [&](int x, int y) {
-            const PixelSum sum = samples.smallerRadiusTotal(x, y);
-            smallerRadiusAt(x, y) += sum;
-            if (odd) smallerRadiusOddAt(x, y) += sum;
-        });
-    invalidSamples += samples.invalidSamples;
+    addParity(*this, samples, oddPasses);
 }
 
 static_assert(sizeof(PixelSum) == 64, "PixelSum must be four packed 128-bit integers");

@@ -190,9 +190,6 @@ class ScratchBlock {
     explicit ScratchBlock(SmallerRadius smallerRadius);
     ScratchBlock(int x0, int y0, int width, int height, SmallerRadius smallerRadius);
 
-    bool contains(int x, int y) const {
-        return x >= m_x0 && y >= m_y0 && x < m_x0 + m_width && y < m_y0 + m_height;
-    }
     bool keepsSmallerRadius() const { return m_smallerRadius == SmallerRadius::Kept; }
 
     struct Sums {

@@ -219,8 +219,9 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
     if (cancelled) return false;
     // Light paths splat onto the whole image (bidirectional integrators): each unit adds the
     // part on its own tile, into the half of each pass's parity.
+    const bool passSplats = integrator.hasPassSplats();
     FilmBlock splats[2];
-    if (integrator.hasPassSplats()) {
+    if (passSplats) {
         // The integrator adds its splats to the smaller radius's image too when kept.
         for (FilmBlock& block : splats)
             block = FilmBlock(reach.x0, reach.y0, reach.width(), reach.height(), PassHalves::None,
@@ -234,7 +235,7 @@ bool renderUnit(const Scene& scene, uint64_t seed, const RenderUnit& unit,
     for (const ThreadFilm& threadFilm : threadFilms)
         for (int parity = 0; parity < 2; ++parity)
             out.addPassesOfParity(threadFilm.passesOfParity[parity], parity == 1);
-    if (integrator.hasPassSplats())
+    if (passSplats)
         for (int parity = 0; parity < 2; ++parity)
             out.addPassesOfParity(splats[parity], parity == 1);
     return true;

@@ -10,6 +10,7 @@
 //                   [CLIENT_CALLS_PER_SECOND]
 #include "alphorn/v1/client_service.grpc.pb.h"
 #include "alphorn/v1/worker_service.grpc.pb.h"
+#include "common/farm/build_identity.h"
 #include "common/farm/bundle.h"
 #include "common/farm/convert.h"
 #include "common/farm/film_codec.h"
@@ -122,8 +123,7 @@ int main(int argc, char** argv) {
         threads.emplace_back([&, w] {
             auto stub = v1::WorkerService::NewStub(channels[w % channels.size()]);
             v1::RegisterRequest registration;
-            registration.set_version(ALPHORN_VERSION);
-            registration.set_platform(renderPlatform());
+            farm::describeThisBuild(registration);
             registration.set_name(absl::StrFormat("sim-%d", w));
             v1::RegisterResponse registered;
             if (!stub->Register(farm::makeContext(workerToken, std::chrono::seconds(30)).get(),

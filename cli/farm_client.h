@@ -129,6 +129,7 @@ struct SubmitOptions {
     int32_t priority = 0;
     std::string name;
     std::string integrator;
+    std::string engineFingerprint;  // --engine: workers of this build only (default: the farm's)
     bool watch = false;
     // --target-error and its cap --max-passes (which then replaces `passes`).
     std::optional<double> targetError;

@@ -75,7 +75,8 @@ void printStatusTable(const std::vector<v1::JobStatus>& jobs) {
             s.has_error_estimate() || s.settings().has_target_error() ? statusErrorText(s) : "";
         for (const std::string& note :
              {estimate, s.target_reached() ? std::string("target reached") : std::string(),
-              duplication(s), s.error().empty() ? "" : "error: " + s.error()})
+              duplication(s), s.error().empty() ? "" : "error: " + s.error(),
+              s.suspect().empty() ? "" : "SUSPECT: " + s.suspect()})
             if (!note.empty()) notes += (notes.empty() ? "" : "  ") + note;
         std::cout << absl::StrFormat(
             format, std::to_string(s.job_id()), jobStateText(s), s.settings().name(),
@@ -118,16 +119,20 @@ std::string workerStateText(const v1::WorkerInfo& w) {
 }
 
 void printWorkerTable(const std::vector<v1::WorkerInfo>& workers) {
-    const char* format = "%-5s %-28s %5s %9s  %-8s %-15s %6s %13s  %-30s %s\n";
-    std::cout << absl::StrFormat(format, "ID", "NAME", "CORES", "MEMORY", "VERSION", "STATE",
-                                 "LEASES", "UNITS MERGED", "SPEED", "LAST SEEN");
-    for (const auto& w : workers)
+    const char* format = "%-5s %-28s %5s %9s  %-8s %-16s %-15s %6s %13s  %-30s %s\n";
+    std::cout << absl::StrFormat(format, "ID", "NAME", "CORES", "MEMORY", "VERSION", "ENGINE",
+                                 "STATE", "LEASES", "UNITS MERGED", "SPEED", "LAST SEEN");
+    for (const auto& w : workers) {
         std::cout << absl::StrFormat(
             format, std::to_string(w.worker_id()), w.name(), std::to_string(w.cores()),
             absl::StrFormat("%.1f GiB", w.memory_bytes() / double(1 << 30)), w.version(),
-            workerStateText(w), std::to_string(w.leases()), std::to_string(w.units_merged()),
+            w.engine_fingerprint().empty() ? "-" : w.engine_fingerprint(),
+            w.quarantined().empty() ? workerStateText(w) : "quarantined",
+            std::to_string(w.leases()), std::to_string(w.units_merged()),
             w.units_merged() > 0 ? speedText(w.samples_per_second(), w.rays_per_second()) : "-",
             absl::StrFormat("%.1f s ago", w.seconds_since_seen()));
+        if (!w.quarantined().empty()) std::cout << "      quarantined: " << w.quarantined() << "\n";
+    }
 }
 
 }  // namespace
@@ -140,6 +145,7 @@ int runSubmit(FarmClient& client, const SubmitOptions& options, bool json) {
     settings.set_passes_per_unit(options.passesPerUnit);
     settings.set_priority(options.priority);
     settings.set_integrator_override(options.integrator);
+    settings.set_engine_fingerprint(options.engineFingerprint);
     settings.set_name(options.name);
     if (options.targetError) {
         settings.set_target_error(*options.targetError);
@@ -201,6 +207,9 @@ Command addSubmitCommand(CLI::App& app) {
     sub->add_option("--name", options->name, "Job name (default: the scene's file name)");
     sub->add_option("--integrator", options->integrator,
                     "Use this integrator type instead of the scene's");
+    sub->add_option("--engine", options->engineFingerprint,
+                    "Render only on workers of this engine fingerprint (16 hex digits, as "
+                    "`alphorn workers` lists them); default: the coordinator's own build");
     sub->add_flag("--watch", options->watch, "Follow the job until it ends");
     sub->add_option("-o,--output", options->output,
                     "Wait for the job and write this EXR (and a PNG beside it)")

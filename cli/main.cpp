@@ -4,6 +4,7 @@
 
 #include "common/core/error.h"
 #include "common/core/properties.h"
+#include "common/farm/engine_fingerprint.h"
 
 #include <iostream>
 
@@ -56,7 +57,8 @@ int main(int argc, char** argv) {
         "Alphorn: a physically based renderer for fog, stage light and caustics, and a render farm "
         "that gives the same bytes on one machine or many. Scenes use the Nori XML format."};
     app.require_subcommand(1);
-    app.set_version_flag("--version", std::string("alphorn ") + ALPHORN_VERSION);
+    app.set_version_flag("--version", std::string("alphorn ") + ALPHORN_VERSION + " (engine " +
+                                          alphorn::farm::engineFingerprint() + ")");
 
     std::vector<Command> commands;
     commands.push_back(addRenderCommand(app));

@@ -1,7 +1,9 @@
 #include "coordinator/admission.h"
 
+#include "common/farm/build_identity.h"
 #include "common/farm/bundle.h"
 #include "common/farm/convert.h"
+#include "common/farm/engine_fingerprint.h"
 #include "common/farm/files.h"
 #include "common/farm/job_scene.h"
 #include "common/farm/rpc.h"
@@ -83,6 +85,7 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
         farm::checkTextField("the job's owner", request.settings().owner());
         farm::checkTextField("the integrator override", request.settings().integrator_override(),
                              64);
+        farm::checkEngineFingerprint(request.settings().engine_fingerprint(), true);
     } catch (const Error& e) {
         throw FarmError(Kind::InvalidArgument, e.what());
     }
@@ -162,6 +165,10 @@ AdmittedJob admitJob(const v1::SubmitJobRequest& request, const BlobStore& blobs
     if (settings.passes() == 0)
         settings.set_passes(static_cast<uint32_t>(scene->sampler()->sampleCount()));
     if (settings.tile_size() == 0) settings.set_tile_size(limits.defaultTileSize);
+    // Only workers of this fingerprint render the job: the coordinator's build unless the
+    // client pinned another (a farm moving between builds).
+    if (settings.engine_fingerprint().empty())
+        settings.set_engine_fingerprint(farm::engineFingerprint());
     // An adaptive job's units each lie in one tile of the fixed adaptive grid: the tile size is
     // the largest power of two not above the setting and the grid's (it does not change the image).
     if (settings.adaptive()) {

@@ -4,7 +4,9 @@
 #include "coordinator/coordinator.h"
 
 #include "common/core/system_memory.h"
+#include "common/farm/build_identity.h"
 #include "common/farm/convert.h"
+#include "common/farm/engine_fingerprint.h"
 #include "common/farm/film_codec.h"
 #include "common/farm/sha256.h"
 #include "common/farm/text_field.h"
@@ -89,12 +91,14 @@ Coordinator::Coordinator(CoordinatorOptions options, std::shared_ptr<const Clock
     // later process can tell which leases it may re-adopt (those of earlier processes).
     const uint64_t epoch = m_store.beginEpoch();
     m_scheduler = std::make_unique<LeaseScheduler>(
-        *m_clock, SchedulerOptions{m_options.leaseSeconds, m_options.maxAttempts},
+        *m_clock,
+        SchedulerOptions{m_options.leaseSeconds, m_options.maxAttempts, m_options.auditFraction},
         LeaseTokens(m_store.leaseKey(), epoch), randomLeaseBase());
     m_stateIdentity = farm::sha256Hex("checkpoint owner:" + m_store.leaseKey()).substr(0, 16);
     m_workers = std::make_unique<WorkerRegistry>(*m_clock, *m_scheduler, m_options.leaseSeconds);
     m_nextCheckpoint = m_clock->monotonicSeconds() + m_options.checkpointIntervalSeconds;
     m_nextPrune = m_clock->monotonicSeconds() + 1;
+    m_lastTick = m_clock->monotonicSeconds();
     resume();
 }
 
@@ -137,8 +141,20 @@ void Coordinator::stop() {
     if (m_background.joinable()) m_background.join();
     m_jobsUnsavedAtStop = checkpointDirtyJobs();
     saveChangedEventLogs();
+    if (m_jobsUnsavedAtStop > 0) {
+        std::lock_guard lock(m_mutex);
+        for (auto& [id, job] : m_jobs) {
+            if (job->state != v1::JOB_STATE_RUNNING || !job->film->dirty()) continue;
+            m_unitsUnsavedAtStop += job->film->unsavedCount();
+            logError("checkpoint.lost",
+                     {field("job", id), field("units_unsaved", job->film->unsavedCount()),
+                      field("units_saved", job->film->mergedCount() - job->film->unsavedCount()),
+                      field("error", job->film->checkpointError())});
+        }
+    }
     if (m_jobsUnsavedAtStop > 0)
         logError("coordinator.stopped", {field("jobs_unsaved", m_jobsUnsavedAtStop),
+                                         field("units_unsaved", m_unitsUnsavedAtStop),
                                          field("consequence",
                                                "their units merged since the last checkpoint are "
                                                "rendered again after a restart")});
@@ -165,6 +181,7 @@ void Coordinator::tick() {
             deleted.swap(m_deletedJobs);
         }
     }
+    forgiveStall(m_clock->monotonicSeconds());
     try {
         expireLeases();
     } catch (const std::exception& e) {
@@ -187,6 +204,22 @@ void Coordinator::tick() {
         m_nextCheckpoint = end + std::max(m_options.checkpointIntervalSeconds,
                                           (end - start) / kCheckpointTimeShare);
     }
+    // The next stall is measured from here: a long checkpoint round is work, not a stall.
+    std::lock_guard lock(m_mutex);
+    m_lastTick = m_clock->monotonicSeconds();
+}
+
+void Coordinator::forgiveStall(double now) {
+    std::lock_guard lock(m_mutex);
+    const double gap = now - m_lastTick;
+    m_lastTick = now;
+    if (!(gap > m_options.stallSeconds)) return;
+    // The background thread ticks every 200 ms; a gap this long means the whole process stood
+    // still, heartbeats unread: the workers did nothing wrong, so nobody's lease is charged.
+    m_scheduler->forgiveStall(gap);
+    logWarning("coordinator.stalled",
+               {field("seconds", absl::StrFormat("%.1f", gap)),
+                field("action", "lease deadlines and worker silences moved later by as much")});
 }
 
 void Coordinator::touchBlobs(const std::vector<std::string>& sha256s) {
@@ -339,7 +372,7 @@ v1::JobStatus Coordinator::submit(const v1::SubmitJobRequest& request,
     std::unique_lock lock(m_mutex);
     const uint64_t id = job->id;
     const v1::JobSettings& settings = job->description.settings();
-    m_scheduler->addJob(id, settings.priority(), grid, {}, {}, true);
+    m_scheduler->addJob(id, settings.priority(), grid, {}, {}, true, settings.engine_fingerprint());
     m_scheduler->setLeaseLimit(id, job->film->leaseLimit());
     eventLocked(*job, v1::JOB_EVENT_SUBMITTED,
                 absl::StrFormat("\"%s\" by %s: %dx%d, %u passes, seed %u, %u units of %u "
@@ -428,6 +461,13 @@ v1::JobStatus Coordinator::statusLocked(const Job& job) const {
     status.set_samples_per_second(rate);
     status.set_rays_per_second(rayRate);
     status.set_paused(job.state == v1::JOB_STATE_RUNNING && m_scheduler->paused(job.id));
+    status.set_suspect(job.suspect);
+    status.set_units_audited(job.unitsAudited);
+    uint32_t auditsWaiting = 0;
+    for (auto held = m_heldResults.lower_bound({job.id, 0});
+         held != m_heldResults.end() && held->first.first == job.id; ++held)
+        ++auditsWaiting;
+    status.set_audits_waiting(auditsWaiting);
     status.set_submitted_at_unix_seconds(job.createdAt);
     const uint64_t totalSamples =
         uint64_t(job.grid.width()) * job.grid.height() * film.expectedPasses();
@@ -608,6 +648,8 @@ uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
                                   theirs, ALPHORN_VERSION));
     try {
         farm::checkTextField("the worker's name", request.name());
+        farm::checkEngineFingerprint(request.engine_fingerprint(), false);
+        farm::checkTextField("the worker's host id", request.host_id(), 64);
     } catch (const Error& e) {
         throw FarmError(Kind::InvalidArgument, e.what());
     }
@@ -631,6 +673,7 @@ uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
     row.cores = request.cores();
     row.memoryBytes = request.memory_bytes();
     row.version = request.version();
+    row.engineFingerprint = request.engine_fingerprint();
     if (m_durableWriteHooks.before) m_durableWriteHooks.before();
     const uint64_t id = m_store.addWorker(row, m_clock->wallSeconds());
     if (m_durableWriteHooks.after) m_durableWriteHooks.after();
@@ -638,7 +681,8 @@ uint64_t Coordinator::registerWorker(const v1::RegisterRequest& request) {
     m_workers->add(id, request);
     logInfo("worker.registered",
             {field("worker", id), field("name", request.name()), field("cores", request.cores()),
-             field("version", request.version()), field("platform", request.platform())});
+             field("version", request.version()), field("platform", request.platform()),
+             field("engine_fingerprint", request.engine_fingerprint())});
     return id;
 }
 
@@ -683,6 +727,7 @@ v1::AcquireWorkResponse Coordinator::acquire(uint64_t workerId,
         // The wait is real time even with another clock: it only bounds a long poll.
         if (m_workAvailable.wait_until(lock, until) == std::cv_status::timeout) {
             m_workers->touch(workerId);
+            if (mayLease) response.set_idle_reason(m_scheduler->idleReason(workerId));
             return response;
         }
     }
@@ -721,6 +766,18 @@ v1::HeartbeatResponse Coordinator::heartbeat(const v1::HeartbeatRequest& request
 
 void Coordinator::recordFailureLocked(Job& job, const LeaseScheduler::Failure& failure,
                                       const std::string& message, uint64_t workerId) {
+    if (failure.audit) {
+        // The unit's result is held; only the second opinion failed, on a host not asked again.
+        logWarning("audit.failed", {field("job", job.id), field("unit", failure.unitIndex),
+                                    field("worker", workerId), field("error", message)});
+        eventLocked(job, v1::JOB_EVENT_FAILED,
+                    absl::StrFormat("rendering it again for an audit failed (not counted as an "
+                                    "attempt; another host audits it): %s",
+                                    message),
+                    workerId, failure.unitIndex);
+        m_workAvailable.notify_all();
+        return;
+    }
     try {
         if (m_durableWriteHooks.before) m_durableWriteHooks.before();
         m_store.setUnitAttempts(job.id, failure.unitIndex, failure.attempts, message);
@@ -755,15 +812,21 @@ void Coordinator::recordFailureLocked(Job& job, const LeaseScheduler::Failure& f
 }
 
 void Coordinator::expireLeases() {
-    std::lock_guard lock(m_mutex);
-    for (const auto& [expired, failure] : m_scheduler->expireLeases()) {
-        recordFailureLocked(
-            *m_jobs.at(expired.jobId), failure,
-            absl::StrFormat("lease expired: worker %u (%s) stopped responding while rendering "
-                            "unit %u (crashed, hung or lost its network)",
-                            expired.workerId, m_workers->name(expired.workerId), expired.unitIndex),
-            expired.workerId);
+    std::vector<Job*> completed;
+    {
+        std::lock_guard lock(m_mutex);
+        for (const auto& [expired, failure] : m_scheduler->expireLeases()) {
+            recordFailureLocked(
+                *m_jobs.at(expired.jobId), failure,
+                absl::StrFormat("lease expired: worker %u (%s) stopped responding while "
+                                "rendering unit %u (crashed, hung or lost its network)",
+                                expired.workerId, m_workers->name(expired.workerId),
+                                expired.unitIndex),
+                expired.workerId);
+        }
+        completed = settleStrandedAuditsLocked();
     }
+    for (Job* job : completed) finishJob(*job);
 }
 
 uint64_t Coordinator::maxResultBytes(uint64_t jobId) const {
@@ -854,37 +917,273 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
         std::lock_guard lock(m_mutex);
         Job& job = jobLocked(jobId);
         // Checked again: the job or the lease may have changed while decompressing.
-        if (!m_scheduler->markMerged(jobId, unitIndex, leaseId)) {
+        if (!m_scheduler->mayMerge(jobId, unitIndex, leaseId)) {
             ++job.discarded;
             changedLocked(job);
             return v1::RESULT_DISCARDED;
         }
-        const uint32_t leaseLimit = job.film->leaseLimit();
-        job.film->merge(unitIndex, block);
-        // An adaptive job's tiles that met the target: their later units are never leased.
-        if (const std::vector<uint32_t> skipped = job.film->takeSkippedUnits(); !skipped.empty())
-            m_scheduler->skipUnits(jobId, skipped);
-        if (job.film->leaseLimit() != leaseLimit) {
-            // A decision point passed: the units up to the next one may be leased now.
-            m_scheduler->setLeaseLimit(jobId, job.film->leaseLimit());
-            m_workAvailable.notify_all();
-        }
-        ++job.mergedThisRun;
-        if (!job.firstMergeAt) job.firstMergeAt = m_clock->monotonicSeconds();
-        if (header.built_pass_data()) job.passDataBuilds += unit.passEnd - unit.passBegin;
-        const uint64_t samples =
-            uint64_t(unit.tile.width()) * unit.tile.height() * (unit.passEnd - unit.passBegin);
-        job.samplesMergedThisRun += samples;
-        job.raysMergedThisRun += header.rays();
-        m_workers->recordMerge(header.worker_id(), samples, header.rays(), header.render_seconds());
-        eventLocked(job, v1::JOB_EVENT_MERGED, "", header.worker_id(), unitIndex);
-        if (job.film->complete()) {
-            job.completing = true;
-            completed = &job;
+        HeldResult result{header.worker_id(),       header.compressed_sha256(),
+                          header.invalid_samples(), "",
+                          header.built_pass_data(), header.rays(),
+                          header.render_seconds(),  compressedFilm.size()};
+        const bool audited = !m_scheduler->heldResults(jobId, unitIndex).empty();
+        if (!audited && !m_scheduler->wantsAudit(jobId, unitIndex, result.workerId)) {
+            switch (mergeLocked(job, unitIndex, leaseId, block, result, false)) {
+                case MergeOutcome::Discarded:
+                    ++job.discarded;
+                    changedLocked(job);
+                    return v1::RESULT_DISCARDED;
+                case MergeOutcome::Completed:
+                    completed = &job;
+                    break;
+                case MergeOutcome::Merged:
+                    break;
+            }
+        } else {
+            result.compressed = compressedFilm;
+            if (holdOrJudgeLocked(job, unitIndex, leaseId, std::move(result)))
+                return v1::RESULT_HELD;
+            // Agreed with a held result: the bytes are the same, this block is merged.
+            const HeldResult credit{header.worker_id(),
+                                    "",
+                                    0,
+                                    "",
+                                    header.built_pass_data(),
+                                    header.rays(),
+                                    header.render_seconds(),
+                                    compressedFilm.size()};
+            if (mergeLocked(job, unitIndex, leaseId, block, credit, true) ==
+                MergeOutcome::Completed)
+                completed = &job;
         }
     }
     if (completed) finishJob(*completed);
     return v1::RESULT_MERGED;
+}
+
+Coordinator::MergeOutcome Coordinator::mergeLocked(Job& job, uint32_t unitIndex, uint64_t leaseId,
+                                                   const FilmBlock& block, const HeldResult& credit,
+                                                   bool verified) {
+    if (!m_scheduler->markMerged(job.id, unitIndex, leaseId)) return MergeOutcome::Discarded;
+    const RenderUnit unit = job.grid.unit(unitIndex);
+    const uint32_t leaseLimit = job.film->leaseLimit();
+    job.film->merge(unitIndex, block);
+    // An adaptive job's tiles that met the target: their later units are never leased.
+    if (const std::vector<uint32_t> skipped = job.film->takeSkippedUnits(); !skipped.empty())
+        m_scheduler->skipUnits(job.id, skipped);
+    if (job.film->leaseLimit() != leaseLimit) {
+        // A decision point passed: the units up to the next one may be leased now.
+        m_scheduler->setLeaseLimit(job.id, job.film->leaseLimit());
+        m_workAvailable.notify_all();
+    }
+    if (!verified) job.unverifiedContributors.insert(credit.workerId);
+    ++job.mergedThisRun;
+    if (!job.firstMergeAt) job.firstMergeAt = m_clock->monotonicSeconds();
+    if (credit.builtPassData) job.passDataBuilds += unit.passEnd - unit.passBegin;
+    const uint64_t samples =
+        uint64_t(unit.tile.width()) * unit.tile.height() * (unit.passEnd - unit.passBegin);
+    job.samplesMergedThisRun += samples;
+    job.raysMergedThisRun += credit.rays;
+    m_workers->recordMerge(credit.workerId, samples, credit.rays, credit.renderSeconds);
+    eventLocked(job, v1::JOB_EVENT_MERGED, "", credit.workerId, unitIndex);
+    // Logged here, under the lock, so that it comes before the job.ended it may lead to.
+    logInfo("unit.merged", {field("job", job.id), field("unit", unitIndex),
+                            field("worker", credit.workerId), field("bytes", credit.bytes)});
+    if (!job.film->complete()) return MergeOutcome::Merged;
+    job.completing = true;
+    return MergeOutcome::Completed;
+}
+
+namespace {
+
+std::string workerList(const std::vector<uint64_t>& workers) {
+    std::string list;
+    for (uint64_t worker : workers) list += (list.empty() ? "" : ", ") + std::to_string(worker);
+    return list;
+}
+
+}  // namespace
+
+bool Coordinator::holdOrJudgeLocked(Job& job, uint32_t unitIndex, uint64_t leaseId,
+                                    HeldResult result) {
+    const auto key = std::make_pair(job.id, unitIndex);
+    std::vector<HeldResult>& held = m_heldResults[key];
+    const uint64_t workerId = result.workerId;
+    if (held.empty()) {
+        m_scheduler->holdForAudit(job.id, unitIndex, leaseId, workerId);
+        held.push_back(std::move(result));
+        logInfo("unit.held_for_audit",
+                {field("job", job.id), field("unit", unitIndex), field("worker", workerId)});
+        changedLocked(job);
+        m_workAvailable.notify_all();
+        return true;
+    }
+    std::vector<uint64_t> agreeing{workerId}, disagreeing;
+    for (const HeldResult& other : held) {
+        if (other.workerId == workerId) return true;  // delivered again: held already
+        const bool same =
+            other.digest == result.digest && other.invalidSamples == result.invalidSamples;
+        (same ? agreeing : disagreeing).push_back(other.workerId);
+    }
+    if (agreeing.size() == 1) {
+        // Nobody agrees with it yet: a worker that rendered neither decides.
+        m_scheduler->holdForAudit(job.id, unitIndex, leaseId, workerId);
+        held.push_back(std::move(result));
+        std::vector<uint64_t> renderers;
+        for (const HeldResult& each : held) renderers.push_back(each.workerId);
+        farm::CoordinatorMetrics::unitAudited(farm::CoordinatorMetrics::AuditOutcome::Disagreed);
+        logWarning("audit.disagreed",
+                   {field("job", job.id), field("unit", unitIndex),
+                    field("workers", workerList(renderers)),
+                    field("action", "another worker renders the unit to decide")});
+        eventLocked(job, v1::JOB_EVENT_AUDITED,
+                    absl::StrFormat("the results of workers %s differ; another worker decides",
+                                    workerList(renderers)),
+                    workerId, unitIndex);
+        m_workAvailable.notify_all();
+        return true;
+    }
+    m_heldResults.erase(key);
+    m_undecidedAudits.erase(key);
+    ++job.unitsAudited;
+    farm::CoordinatorMetrics::unitAudited(farm::CoordinatorMetrics::AuditOutcome::Agreed);
+    for (uint64_t worker : agreeing) m_scheduler->passProbation(worker, job.id);
+    logInfo("audit.agreed",
+            {field("job", job.id), field("unit", unitIndex), field("workers", workerList(agreeing)),
+             field("disagreeing", workerList(disagreeing))});
+    eventLocked(job, v1::JOB_EVENT_AUDITED,
+                disagreeing.empty()
+                    ? absl::StrFormat("workers %s rendered the same bytes", workerList(agreeing))
+                    : absl::StrFormat("workers %s rendered the same bytes; worker %s did not",
+                                      workerList(agreeing), workerList(disagreeing)),
+                workerId, unitIndex);
+    for (uint64_t worker : disagreeing)
+        quarantineLocked(
+            worker,
+            absl::StrFormat("its render of unit %u of job %u differs from the same render by "
+                            "workers %s, which agree",
+                            unitIndex, job.id, workerList(agreeing)));
+    return false;
+}
+
+std::vector<Coordinator::Job*> Coordinator::settleStrandedAuditsLocked() {
+    std::vector<Job*> completed;
+    for (const auto& [jobId, unitIndex] : m_scheduler->auditsWithoutAuditor()) {
+        const auto key = std::make_pair(jobId, unitIndex);
+        auto held = m_heldResults.find(key);
+        auto job = m_jobs.find(jobId);
+        if (held == m_heldResults.end() || job == m_jobs.end()) continue;
+        if (held->second.size() > 1) {
+            if (m_undecidedAudits.insert(key).second) {
+                std::vector<uint64_t> renderers;
+                for (const HeldResult& each : held->second) renderers.push_back(each.workerId);
+                logWarning("audit.undecided", {field("job", jobId), field("unit", unitIndex),
+                                               field("workers", workerList(renderers)),
+                                               field("action",
+                                                     "waiting for a worker of the job's build that "
+                                                     "rendered neither")});
+                eventLocked(*job->second, v1::JOB_EVENT_AUDITED,
+                            absl::StrFormat("the results of workers %s differ and no other "
+                                            "worker of the job's build is alive to decide; "
+                                            "the unit waits for one",
+                                            workerList(renderers)),
+                            0, unitIndex);
+            }
+            continue;
+        }
+        // Nobody else can render it again (the other workers left): taken as delivered.
+        HeldResult result = std::move(held->second.front());
+        m_heldResults.erase(held);
+        FilmBlock block =
+            unitBlock(job->second->grid.unit(unitIndex).tile, job->second->filterBorder,
+                      job->second->grid.tiles().smallerRadius());
+        try {
+            farm::decompressFilm(result.compressed, block);
+        } catch (const Error& e) {
+            continue;  // checked when it arrived; cannot happen
+        }
+        block.invalidSamples = result.invalidSamples;
+        farm::CoordinatorMetrics::unitAudited(farm::CoordinatorMetrics::AuditOutcome::Unaudited);
+        logInfo("audit.skipped",
+                {field("job", jobId), field("unit", unitIndex), field("worker", result.workerId),
+                 field("reason",
+                       "no other worker of the job's build is alive "
+                       "to render it again")});
+        m_scheduler->passProbation(result.workerId, jobId);
+        if (mergeLocked(*job->second, unitIndex, 0, block, result, false) ==
+            MergeOutcome::Completed)
+            completed.push_back(job->second.get());
+        m_workAvailable.notify_all();
+    }
+    return completed;
+}
+
+void Coordinator::quarantineLocked(uint64_t workerId, const std::string& reason) {
+    if (m_scheduler->quarantined(workerId)) return;
+    try {
+        m_store.setWorkerQuarantined(workerId, reason);
+    } catch (const StorageError& e) {
+        // Held in memory all the same; a restart forgets it until the next audit finds it.
+        logWarning("worker.quarantine_not_recorded",
+                   {field("worker", workerId), field("error", e.what())});
+    }
+    if (WorkerRegistry::Worker* worker = m_workers->find(workerId)) worker->quarantined = reason;
+    m_scheduler->quarantineWorker(workerId);
+    for (auto held = m_heldResults.begin(); held != m_heldResults.end();) {
+        auto& results = held->second;
+        results.erase(std::remove_if(results.begin(), results.end(),
+                                     [&](const HeldResult& r) { return r.workerId == workerId; }),
+                      results.end());
+        held = results.empty() ? m_heldResults.erase(held) : std::next(held);
+    }
+    farm::CoordinatorMetrics::workerQuarantined();
+    logError("worker.quarantined",
+             {field("worker", workerId), field("name", m_workers->name(workerId)),
+              field("reason", reason)});
+    for (auto& [id, job] : m_jobs) {
+        if (!job->unverifiedContributors.count(workerId)) continue;
+        const std::string why =
+            absl::StrFormat("worker %u (%s), which merged units into it, was quarantined: %s",
+                            workerId, m_workers->name(workerId), reason);
+        if (job->state == v1::JOB_STATE_RUNNING && !job->completing) {
+            restartJobLocked(*job, why);
+        } else if (job->state == v1::JOB_STATE_DONE || job->completing) {
+            job->suspect = why;
+            try {
+                m_store.setJobSuspect(id, why);
+            } catch (const StorageError& e) {
+                logWarning("job.suspect_not_recorded",
+                           {field("job", id), field("error", e.what())});
+            }
+            logError("job.suspect", {field("job", id), field("reason", why)});
+            eventLocked(*job, v1::JOB_EVENT_SUSPECT, why, workerId);
+        }
+    }
+    m_workAvailable.notify_all();
+}
+
+void Coordinator::restartJobLocked(Job& job, const std::string& reason) {
+    // The film's sums cannot be taken apart by worker: everything is rendered again, which
+    // gives the bytes of a fresh job (every unit is a pure function of the job).
+    job.film->startEmpty();
+    m_scheduler->restartJob(job.id);
+    m_scheduler->setLeaseLimit(job.id, job.film->leaseLimit());
+    for (auto held = m_heldResults.lower_bound({job.id, 0});
+         held != m_heldResults.end() && held->first.first == job.id;)
+        held = m_heldResults.erase(held);
+    job.unverifiedContributors.clear();
+    job.restored = job.mergedThisRun = 0;
+    job.samplesMergedThisRun = job.raysMergedThisRun = 0;
+    job.firstMergeAt.reset();
+    // No restart may resume the old film: its checkpoint goes now (a write in progress notices
+    // the film's new generation and removes what it wrote).
+    std::error_code error;
+    fs::remove(fs::path(jobDirectory(job.id)) / "film.ckpt", error);
+    if (error)
+        logError("checkpoint.not_removed", {field("job", job.id), field("error", error.message())});
+    farm::CoordinatorMetrics::jobRestarted();
+    logWarning("job.restarted", {field("job", job.id), field("reason", reason)});
+    eventLocked(job, v1::JOB_EVENT_RESTARTED, reason + "; rendering it again from nothing");
 }
 
 void Coordinator::finishJob(Job& job) {
@@ -917,7 +1216,9 @@ void Coordinator::writeJobCheckpoint(Job& job, const JobFilm::Copy& copy, bool f
     std::lock_guard writeLock(job.film->writeMutex());
     {
         std::lock_guard lock(m_mutex);
-        if (job.deleted || !job.film->newerThanCheckpoint(copy.count)) return;
+        if (job.deleted || copy.generation != job.film->generation() ||
+            !job.film->newerThanCheckpoint(copy.count))
+            return;
     }
     const double start = m_clock->monotonicSeconds();
     try {
@@ -942,6 +1243,13 @@ void Coordinator::writeJobCheckpoint(Job& job, const JobFilm::Copy& copy, bool f
         throw;
     }
     std::lock_guard lock(m_mutex);
+    if (copy.generation != job.film->generation()) {
+        // The film was emptied while this copy was written (a quarantined worker had merged
+        // into it): no restart may resume it.
+        std::error_code ignored;
+        fs::remove(fs::path(jobDirectory(job.id)) / "film.ckpt", ignored);
+        return;
+    }
     if (job.checkpointFailures > 0)
         logInfo("checkpoint.recovered",
                 {field("job", job.id), field("failed_attempts", job.checkpointFailures)});

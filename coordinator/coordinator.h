@@ -74,6 +74,12 @@ struct CoordinatorOptions {
     // Memory the running jobs' films and unit tables may take together; a job that would exceed
     // it is refused at submit. 0: half of the machine's physical memory.
     uint64_t maxMemoryBytes = 0;
+    // Share of units rendered by a second worker and compared before merging, besides each
+    // worker's first unit of each job, which is always audited (LeaseScheduler).
+    double auditFraction = 0.01;
+    // A gap this long between two ticks of the background thread means the process did not run
+    // (SIGSTOP, a paused machine): leases and workers' silence are forgiven that long.
+    double stallSeconds = 2.0;
 };
 
 class Coordinator {
@@ -96,6 +102,8 @@ class Coordinator {
     // After stop(): how many running jobs' last checkpoint could not be written (a full or
     // read-only state directory), whose merged units a restart renders again.
     int jobsUnsavedAtStop() const { return m_jobsUnsavedAtStop; }
+    // After stop(): the units those jobs merged since their last written checkpoints.
+    uint64_t unitsUnsavedAtStop() const { return m_unitsUnsavedAtStop; }
     // The background work, once: expires leases that are past their deadline, and when due
     // (by the clock) removes what the keep time lets go (every minute) and checkpoints the jobs
     // with new merges (every checkpoint interval). The background thread calls it; without
@@ -231,7 +239,24 @@ class Coordinator {
         double checkpointFailureLoggedAt = 0;
         // Bumped on every change its status shows (changedLocked); WatchJob waits on it.
         std::shared_ptr<ChangeSignal> changes = std::make_shared<ChangeSignal>();
+        // Workers whose results were merged without an audit's agreement, in this process:
+        // should one be quarantined, the running job is rendered again, the done one suspect.
+        std::set<uint64_t> unverifiedContributors;
+        std::string suspect;  // JobStatus.suspect
+        uint32_t unitsAudited = 0;
     };
+    // A unit's result kept until another worker's render of the unit agrees with it.
+    struct HeldResult {
+        uint64_t workerId = 0;
+        std::string digest;  // ResultChunk.compressed_sha256, checked against `compressed`
+        uint64_t invalidSamples = 0;
+        std::string compressed;
+        bool builtPassData = false;
+        uint64_t rays = 0;
+        double renderSeconds = 0;
+        uint64_t bytes = 0;  // the compressed film's size, for the log
+    };
+    enum class MergeOutcome { Discarded, Merged, Completed };
     // Restores the workers and jobs of the state directory (recovery.cpp).
     void resume();
     // Rebuilds one job from its stored row and checkpoint; throws Error on a damaged record.
@@ -246,6 +271,8 @@ class Coordinator {
     bool copyFilmInBands(uint64_t jobId, const JobFilm* source, FilmBlock& target);
     void backgroundLoop();
     void expireLeases();
+    // A gap in the background thread's ticks longer than stallSeconds: forgives it (tick()).
+    void forgiveStall(double now);
     // Returns how many running jobs' checkpoints could not be written.
     int checkpointDirtyJobs();
     // Writes `copy` unless a newer checkpoint of the job exists already (`final`: the job's last,
@@ -264,6 +291,22 @@ class Coordinator {
     // The listed job the submission created, if any.
     const Job* submittedJobLocked(const SubmissionKey& submission) const;
     v1::JobStatus statusLocked(const Job& job) const;
+    // Merges a unit's result into the job's film (the caller checked mayMerge). `verified`: an
+    // audit's agreement stands behind it; otherwise its worker is a contributor to be undone
+    // should it be quarantined.
+    MergeOutcome mergeLocked(Job& job, uint32_t unitIndex, uint64_t leaseId, const FilmBlock& block,
+                             const HeldResult& credit, bool verified);
+    // Decides what to do with a result that may be merged: hold it for an audit (true), or
+    // merge it (false) after comparing it with the results held for the unit, passing the
+    // workers that agree and quarantining those that do not.
+    bool holdOrJudgeLocked(Job& job, uint32_t unitIndex, uint64_t leaseId, HeldResult result);
+    // Audits no live worker can do any more: a single held result is merged unaudited; results
+    // that disagree wait, said once. Returns the jobs that completed.
+    std::vector<Job*> settleStrandedAuditsLocked();
+    // The worker renders wrong results: no more units, its held results dropped, the running
+    // jobs it merged unverified results into rendered again, the done ones marked suspect.
+    void quarantineLocked(uint64_t workerId, const std::string& reason);
+    void restartJobLocked(Job& job, const std::string& reason);
     // Stores a failed attempt counted by the scheduler; fails the job of a poison unit.
     void recordFailureLocked(Job& job, const LeaseScheduler::Failure& failure,
                              const std::string& message, uint64_t workerId);
@@ -298,6 +341,7 @@ class Coordinator {
     JobStore m_store;
     BlobStore m_blobs;
     int m_jobsUnsavedAtStop = 0;
+    uint64_t m_unitsUnsavedAtStop = 0;
     std::string m_stateIdentity;  // a digest of the store's key, for checkpointOwner()
     mutable std::mutex m_mutex;
     // Taken before m_mutex by the job controls (pause, priority, retry, delete), which write the
@@ -312,7 +356,12 @@ class Coordinator {
     std::vector<std::unique_ptr<Job>> m_deletedJobs;
     std::unique_ptr<WorkerRegistry> m_workers;  // made after m_scheduler, which it informs
     std::unordered_map<std::string, double> m_blobsTouchedAt;  // sha256 -> wall clock
-    uint64_t m_memoryInUse = 0;                                // sum of running jobs' memoryBytes
+    // Results held for audits, by (job, unit); the scheduler knows which units wait.
+    std::map<std::pair<uint64_t, uint32_t>, std::vector<HeldResult>> m_heldResults;
+    // Audits whose results disagree and that no live worker can decide, said once each.
+    std::set<std::pair<uint64_t, uint32_t>> m_undecidedAudits;
+    double m_lastTick = 0;       // monotonic, for forgiveStall
+    uint64_t m_memoryInUse = 0;  // sum of running jobs' memoryBytes
     // Submissions with an id being admitted right now (loading their scene), with how many
     // later calls with the same id wait for that admission: a second call must not admit the
     // job again, and a first call whose caller is gone still creates the job for a waiting one.

@@ -2,8 +2,10 @@
 // whole job driven through Coordinator (submit, lease, report out of order, late and duplicate
 // results, restart from the checkpoint) compared byte for byte with renderLocal().
 #include "coordinator/coordinator.h"
+#include "common/farm/build_identity.h"
 #include "common/farm/bundle.h"
 #include "common/farm/convert.h"
+#include "common/farm/engine_fingerprint.h"
 #include "common/farm/files.h"
 #include "common/farm/film_codec.h"
 #include "common/farm/sha256.h"
@@ -39,8 +41,7 @@ namespace fs = std::filesystem;
 // A worker's registration as a worker of this build sends it.
 v1::RegisterRequest thisBuild() {
     v1::RegisterRequest request;
-    request.set_version(ALPHORN_VERSION);
-    request.set_platform(renderPlatform());
+    farm::describeThisBuild(request);
     return request;
 }
 
@@ -1582,6 +1583,199 @@ TEST_F(CoordinatorJob, ADrainedWorkerGetsNoNewUnits) {
         << "the drain was not stored";
     EXPECT_FALSE(coordinator.setWorkerDraining(worker, false).draining());
     EXPECT_TRUE(coordinator.acquire(worker, std::chrono::steady_clock::now()).has_work());
+    coordinator.stop();
+}
+
+// A worker whose results are wrong (here: one more unit of red in one pixel of each film, as a
+// damaged scene file or a bad build would) is caught by the audit of its first unit: a third
+// worker's render agrees with the second's, the wrong worker is quarantined, and the job's film
+// is the local render's.
+TEST_F(CoordinatorJob, AnAuditQuarantinesAWrongWorkerAndTheFilmStaysRight) {
+    auto clock = std::make_shared<ManualClock>();
+    uint64_t wrong = 0;
+    {
+        Coordinator coordinator(m_options, clock);
+        const uint64_t jobId = coordinator.submit(upload(coordinator)).job_id();
+        wrong = coordinator.registerWorker(thisBuild());
+        const uint64_t right = coordinator.registerWorker(thisBuild());
+        const uint64_t judge = coordinator.registerWorker(thisBuild());
+        const auto deliver = [&](uint64_t worker, bool perturb) {
+            const auto lease = coordinator.acquire(worker, std::chrono::steady_clock::now());
+            EXPECT_TRUE(lease.has_work());
+            std::string compressed;
+            v1::ResultChunk header = render(lease, worker, compressed);
+            if (perturb) {
+                FilmBlock block(header.block_x0(), header.block_y0(), header.block_width(),
+                                header.block_height(), PassHalves::Kept);
+                farm::decompressFilm(compressed, block);
+                block.at(block.x0(), block.y0()).rgb[0] += 1;
+                compressed = farm::compressFilm(block);
+                header.set_compressed_size(compressed.size());
+                header.set_compressed_sha256(farm::sha256Hex(compressed));
+            }
+            return std::make_pair(lease.unit().unit_index(),
+                                  coordinator.report(header, compressed));
+        };
+        const auto [unit, first] = deliver(wrong, true);
+        EXPECT_EQ(first, v1::RESULT_HELD) << "a worker's first result was merged unaudited";
+        EXPECT_FALSE(coordinator.acquire(wrong, std::chrono::steady_clock::now()).has_work())
+            << "a worker on probation got another unit of the job";
+        const auto [audited, second] = deliver(right, false);
+        EXPECT_EQ(audited, unit) << "the audit did not go first";
+        EXPECT_EQ(second, v1::RESULT_HELD) << "results that differ were merged";
+        const auto [decided, third] = deliver(judge, false);
+        EXPECT_EQ(decided, unit);
+        EXPECT_EQ(third, v1::RESULT_MERGED);
+        const std::vector<v1::WorkerInfo> workers = coordinator.listWorkers(true);
+        for (const v1::WorkerInfo& worker : workers)
+            EXPECT_EQ(worker.quarantined().empty(), worker.worker_id() != wrong)
+                << worker.worker_id();
+        EXPECT_FALSE(coordinator.acquire(wrong, std::chrono::steady_clock::now()).has_work());
+        // The good workers finish the job (their first units audit each other).
+        for (int round = 0; round < 100; ++round) {
+            if (coordinator.listJobs(jobId).at(0).state() != v1::JOB_STATE_RUNNING) break;
+            deliver(round % 2 ? right : judge, false);
+        }
+        const v1::JobStatus status = coordinator.listJobs(jobId).at(0);
+        EXPECT_EQ(status.state(), v1::JOB_STATE_DONE);
+        EXPECT_GE(status.units_audited(), 1u);
+        EXPECT_EQ(status.suspect(), "");
+        EXPECT_EQ(coordinator.snapshot(jobId, false).film.serialize(), localFilm());
+        coordinator.stop();
+    }
+    // The quarantine is stored: a restarted coordinator leases the worker nothing.
+    Coordinator restarted(m_options, clock);
+    bool listed = false;
+    for (const v1::WorkerInfo& worker : restarted.listWorkers(true))
+        if (worker.worker_id() == wrong) listed = !worker.quarantined().empty();
+    EXPECT_TRUE(listed) << "the quarantine was forgotten by a restart";
+    restarted.stop();
+}
+
+// A worker that passed its first audit and is found wrong later (an intermittent fault): the
+// running job it merged into is rendered again from nothing, a done one is marked suspect.
+TEST_F(CoordinatorJob, AWorkerFoundWrongLaterRestartsItsJobsOrMarksThemSuspect) {
+    auto clock = std::make_shared<ManualClock>();
+    m_options.auditFraction = 0;  // only first units: the test decides when the fault shows
+    Coordinator coordinator(m_options, clock);
+    const uint64_t done = coordinator.submit(upload(coordinator, 1)).job_id();
+    const uint64_t a = coordinator.registerWorker(thisBuild());
+    const uint64_t b = coordinator.registerWorker(thisBuild());
+    const uint64_t c = coordinator.registerWorker(thisBuild());
+    const auto deliver = [&](uint64_t worker, bool perturb) {
+        const auto lease = coordinator.acquire(worker, std::chrono::steady_clock::now());
+        if (!lease.has_work()) return v1::RESULT_DISPOSITION_UNSPECIFIED;
+        std::string compressed;
+        v1::ResultChunk header = render(lease, worker, compressed);
+        if (perturb) {
+            FilmBlock block(header.block_x0(), header.block_y0(), header.block_width(),
+                            header.block_height(), PassHalves::Kept);
+            farm::decompressFilm(compressed, block);
+            block.at(block.x0(), block.y0()).rgb[1] += 7;
+            compressed = farm::compressFilm(block);
+            header.set_compressed_size(compressed.size());
+            header.set_compressed_sha256(farm::sha256Hex(compressed));
+        }
+        return coordinator.report(header, compressed);
+    };
+    // Job 1: A's first unit is audited by B and agrees; A's later units merge unaudited.
+    ASSERT_EQ(deliver(a, false), v1::RESULT_HELD);
+    ASSERT_EQ(deliver(b, false), v1::RESULT_MERGED);
+    for (int i = 0; i < 100 && coordinator.listJobs(done).at(0).state() == v1::JOB_STATE_RUNNING;
+         ++i)
+        deliver(a, false);
+    ASSERT_EQ(coordinator.listJobs(done).at(0).state(), v1::JOB_STATE_DONE);
+    // Job 2: A passes its first audit, then merges a wrong unit unaudited.
+    const uint64_t running = coordinator.submit(upload(coordinator, 3)).job_id();
+    ASSERT_EQ(deliver(a, false), v1::RESULT_HELD);
+    ASSERT_EQ(deliver(c, false), v1::RESULT_MERGED);
+    ASSERT_EQ(deliver(a, true), v1::RESULT_MERGED);
+    EXPECT_GT(coordinator.listJobs(running).at(0).units_done(), 1u);
+    // B's first unit of job 2 is audited by A, wrongly: C decides against A.
+    ASSERT_EQ(deliver(b, false), v1::RESULT_HELD);
+    ASSERT_EQ(deliver(a, true), v1::RESULT_HELD);
+    ASSERT_EQ(deliver(c, false), v1::RESULT_MERGED);
+    v1::JobStatus status = coordinator.listJobs(running).at(0);
+    EXPECT_EQ(status.units_done(), 1u) << "the job was not rendered again from nothing";
+    EXPECT_NE(coordinator.listJobs(done).at(0).suspect().find("quarantined"), std::string::npos);
+    for (int i = 0; i < 400 && coordinator.listJobs(running).at(0).state() == v1::JOB_STATE_RUNNING;
+         ++i)
+        deliver(i % 2 ? b : c, false);
+    status = coordinator.listJobs(running).at(0);
+    ASSERT_EQ(status.state(), v1::JOB_STATE_DONE);
+    EXPECT_EQ(status.suspect(), "");
+    EXPECT_EQ(coordinator.snapshot(running, false).film.serialize(), localFilm());
+    coordinator.stop();
+}
+
+// A coordinator that stood still (SIGSTOP, a paused VM) longer than a lease charges no attempt
+// to the workers whose heartbeats it did not read meanwhile.
+TEST_F(CoordinatorJob, AStalledCoordinatorChargesNoAttempt) {
+    auto clock = std::make_shared<ManualClock>();
+    m_options.leaseSeconds = 5;
+    Coordinator coordinator(m_options, clock);
+    const uint64_t jobId = coordinator.submit(upload(coordinator)).job_id();
+    const uint64_t worker = coordinator.registerWorker(thisBuild());
+    ASSERT_TRUE(coordinator.acquire(worker, std::chrono::steady_clock::now()).has_work());
+    coordinator.tick();
+    clock->advance(60);
+    coordinator.tick();
+    EXPECT_EQ(coordinator.listJobs(jobId).at(0).attempts_failed(), 0u)
+        << "a healthy worker was charged for the coordinator's stall";
+    EXPECT_EQ(coordinator.listJobs(jobId).at(0).units_leased(), 1u);
+    // Real silence after the stall still expires the lease: ticks every 0.2 s for 6 s.
+    for (int i = 0; i < 30; ++i) {
+        clock->advance(0.2);
+        coordinator.tick();
+    }
+    EXPECT_EQ(coordinator.listJobs(jobId).at(0).attempts_failed(), 1u);
+    coordinator.stop();
+}
+
+// A worker of another build registers but is leased none of the job's units, and is told why; a
+// job pinned to its fingerprint is its.
+TEST_F(CoordinatorJob, AWorkerOfAnotherBuildIsLeasedNothingOfTheJob) {
+    Coordinator coordinator(m_options);
+    const uint64_t jobId = coordinator.submit(upload(coordinator)).job_id();
+    EXPECT_EQ(coordinator.listJobs(jobId).at(0).settings().engine_fingerprint(),
+              farm::engineFingerprint());
+    v1::RegisterRequest other = thisBuild();
+    other.set_engine_fingerprint(
+        farm::engineFingerprint() == "0123456789abcdef" ? "fedcba9876543210" : "0123456789abcdef");
+    const uint64_t foreign = coordinator.registerWorker(other);
+    const auto idle = coordinator.acquire(foreign, std::chrono::steady_clock::now());
+    EXPECT_FALSE(idle.has_work());
+    EXPECT_NE(idle.idle_reason().find(farm::engineFingerprint()), std::string::npos)
+        << idle.idle_reason();
+    EXPECT_EQ(coordinator.listWorkers(true).at(0).engine_fingerprint(), other.engine_fingerprint());
+    v1::SubmitJobRequest pinned = upload(coordinator);
+    pinned.mutable_settings()->set_engine_fingerprint(other.engine_fingerprint());
+    const uint64_t pinnedId = coordinator.submit(pinned).job_id();
+    const auto lease = coordinator.acquire(foreign, std::chrono::steady_clock::now());
+    ASSERT_TRUE(lease.has_work());
+    EXPECT_EQ(lease.unit().job_id(), pinnedId);
+    // Not a fingerprint: refused with what one looks like.
+    for (const std::string& bad :
+         {std::string("xyz"), std::string(16, 'G'), std::string(17, '1')}) {
+        v1::SubmitJobRequest request = upload(coordinator);
+        request.mutable_settings()->set_engine_fingerprint(bad);
+        std::string refused;
+        try {
+            coordinator.submit(request);
+        } catch (const FarmError& e) {
+            EXPECT_EQ(e.kind, FarmError::Kind::InvalidArgument) << e.what();
+            refused = e.what();
+        }
+        EXPECT_NE(refused.find("16 lowercase hex digits"), std::string::npos) << refused;
+        v1::RegisterRequest registration = thisBuild();
+        registration.set_engine_fingerprint(bad);
+        expectRefusedRegistration(coordinator, registration, FarmError::Kind::InvalidArgument,
+                                  "engine fingerprint");
+    }
+    v1::RegisterRequest none = thisBuild();
+    none.clear_engine_fingerprint();
+    expectRefusedRegistration(coordinator, none, FarmError::Kind::InvalidArgument,
+                              "engine fingerprint");
     coordinator.stop();
 }
 

@@ -4,6 +4,7 @@
 // that a page of another site could forge, and the JSON and PNG the pages read. The pages
 // themselves are tested in a real browser by tests/farm/dashboard_test.py.
 #include "coordinator/dashboard.h"
+#include "common/farm/build_identity.h"
 #include "common/scene/accel.h"
 
 #include "common/farm/http_test_client.h"
@@ -190,8 +191,7 @@ TEST_F(DashboardTest, ActionsWithTheCookieNeedTheDashboardsHeader) {
 TEST_F(DashboardTest, ServesAJobsStatusHistoryPreviewAndWorkers) {
     const v1::JobStatus job = m_coordinator->submit(upload(*m_coordinator, 4));
     v1::RegisterRequest registration;
-    registration.set_version(ALPHORN_VERSION);
-    registration.set_platform(renderPlatform());
+    farm::describeThisBuild(registration);
     registration.set_name("dashboard-worker");
     const uint64_t worker = m_coordinator->registerWorker(registration);
     const v1::AcquireWorkResponse held =
@@ -270,8 +270,7 @@ TEST_F(DashboardTest, ActionsCallTheCoordinator) {
     EXPECT_THROW(m_coordinator->listJobs(job.job_id()), FarmError);
 
     v1::RegisterRequest registration;
-    registration.set_version(ALPHORN_VERSION);
-    registration.set_platform(renderPlatform());
+    farm::describeThisBuild(registration);
     const uint64_t worker = m_coordinator->registerWorker(registration);
     const std::string workerId = std::to_string(worker);
     EXPECT_EQ(post("/api/worker/drain?id=" + workerId, bearer(kClientToken))->status, 200);

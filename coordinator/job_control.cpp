@@ -217,7 +217,8 @@ v1::JobStatus Coordinator::retry(uint64_t jobId, const std::string& requestId) {
     job->samplesMergedThisRun = job->raysMergedThisRun = 0;
     m_scheduler->removeJob(jobId);
     m_scheduler->addJob(jobId, job->description.settings().priority(), job->grid,
-                        job->film->merged(), {}, true);
+                        job->film->merged(), {}, true,
+                        job->description.settings().engine_fingerprint());
     m_scheduler->setLeaseLimit(jobId, job->film->leaseLimit());
     eventLocked(*job, v1::JOB_EVENT_RETRIED,
                 absl::StrFormat("was %s; %u of %u units kept from its checkpoint, the rest "

@@ -202,6 +202,7 @@ void JobFilm::forget() {
 }
 
 void JobFilm::resetState() {
+    ++m_generation;
     m_merged.assign(m_grid.unitCount(), false);
     m_mergedPerChunk.assign(m_grid.chunkCount(), 0);
     m_mergedCount = m_passesComplete = 0;

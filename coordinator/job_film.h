@@ -92,10 +92,16 @@ class JobFilm {
         FilmBlock film;
         std::vector<bool> merged;
         uint32_t count = 0;
+        uint64_t generation = 0;  // generation() when the copy was taken
     };
-    Copy copy() const { return Copy{m_film, m_merged, m_mergedCount}; }
+    Copy copy() const { return Copy{m_film, m_merged, m_mergedCount, m_generation}; }
+    // Counts the times the film was emptied (startEmpty, forget): a checkpoint copied before
+    // such a reset must not be written after it.
+    uint64_t generation() const { return m_generation; }
     // Merged units not in the checkpoint yet?
     bool dirty() const { return m_mergedCount > m_checkpointedCount; }
+    // Merged units the checkpoint on disk does not hold.
+    uint32_t unsavedCount() const { return m_mergedCount - m_checkpointedCount; }
     // Would a copy of `count` merged units be newer than the checkpoint on disk? Merges only
     // add units, so a higher count is a newer film; a newer one is never overwritten.
     bool newerThanCheckpoint(uint32_t count) const {
@@ -140,6 +146,7 @@ class JobFilm {
     uint32_t m_mergedCount = 0, m_passesComplete = 0;
     uint64_t m_samplesMerged = 0;
     uint32_t m_checkpointedCount = 0, m_checkpointsWritten = 0;
+    uint64_t m_generation = 0;
     std::optional<double> m_targetError;
     uint32_t m_decisionPasses = 0;  // the next decision point
     std::optional<ErrorEstimate> m_estimate;

@@ -72,6 +72,15 @@ constexpr AddedColumn kAddedColumns[] = {
     // JobStore::recordDigest() of the row at submission; empty for jobs stored before it existed,
     // which are resumed unchecked.
     {"jobs", "record_sha256", "TEXT NOT NULL DEFAULT ''"},
+    // RegisterRequest.engine_fingerprint; empty for workers stored before it existed, which are
+    // leased nothing until they register again.
+    {"workers", "engine_fingerprint", "TEXT NOT NULL DEFAULT ''"},
+    // Why the done job's image is suspect (a worker that rendered some of it was quarantined
+    // later); empty when it is not. Not part of the record's digest: it changes after submit.
+    {"jobs", "suspect", "TEXT NOT NULL DEFAULT ''"},
+    // Why an audit quarantined the worker (no units until it registers again as a new worker);
+    // empty when it is not quarantined.
+    {"workers", "quarantined", "TEXT NOT NULL DEFAULT ''"},
 };
 
 using Value = StateDatabase::Value;
@@ -190,8 +199,8 @@ std::vector<JobRow> JobStore::jobs() {
     std::vector<JobRow> result;
     for (const auto& row : m_db.query("SELECT id, description, state, error, width, height, "
                                       "filter_border, created_at, finished_at, paused, "
-                                      "smaller_radius, submission_id, record_sha256 FROM "
-                                      "jobs")) {
+                                      "smaller_radius, submission_id, record_sha256, suspect "
+                                      "FROM jobs")) {
         JobRow job;
         job.id = uint64_t(StateDatabase::integer(row[0]));
         v1::JobDescription description;
@@ -211,6 +220,7 @@ std::vector<JobRow> JobStore::jobs() {
         job.smallerRadius = StateDatabase::integer(row[10]) != 0;
         job.submissionId = StateDatabase::text(row[11]);
         job.recordSha256 = StateDatabase::text(row[12]);
+        job.suspect = StateDatabase::text(row[13]);
         result.push_back(std::move(job));
     }
     return result;
@@ -273,6 +283,10 @@ void JobStore::setJobDescription(uint64_t jobId, const v1::JobDescription& descr
                  {stored.SerializeAsString(), int64_t(jobId)});
 }
 
+void JobStore::setJobSuspect(uint64_t jobId, const std::string& reason) {
+    m_db.execute("UPDATE jobs SET suspect = ? WHERE id = ?", {reason, int64_t(jobId)});
+}
+
 void JobStore::setJobPaused(uint64_t jobId, bool paused) {
     m_db.execute("UPDATE jobs SET paused = ? WHERE id = ?", {int64_t(paused), int64_t(jobId)});
 }
@@ -325,17 +339,17 @@ void JobStore::clearUnitAttempts(uint64_t jobId) {
 
 uint64_t JobStore::addWorker(const WorkerRow& worker, double registeredAt) {
     const auto rows = m_db.query(
-        "INSERT INTO workers(name, cores, memory_bytes, version, registered_at) "
-        "VALUES(?, ?, ?, ?, ?) RETURNING id",
+        "INSERT INTO workers(name, cores, memory_bytes, version, engine_fingerprint, "
+        "registered_at) VALUES(?, ?, ?, ?, ?, ?) RETURNING id",
         {worker.name, int64_t(worker.cores), int64_t(worker.memoryBytes), worker.version,
-         registeredAt});
+         worker.engineFingerprint, registeredAt});
     return uint64_t(StateDatabase::integer(rows.at(0).at(0)));
 }
 
 std::vector<WorkerRow> JobStore::workers() {
     std::vector<WorkerRow> result;
-    for (const auto& row :
-         m_db.query("SELECT id, name, cores, memory_bytes, version, draining FROM workers")) {
+    for (const auto& row : m_db.query("SELECT id, name, cores, memory_bytes, version, draining, "
+                                      "engine_fingerprint, quarantined FROM workers")) {
         WorkerRow worker;
         worker.id = uint64_t(StateDatabase::integer(row[0]));
         worker.name = StateDatabase::text(row[1]);
@@ -343,6 +357,8 @@ std::vector<WorkerRow> JobStore::workers() {
         worker.memoryBytes = uint64_t(StateDatabase::integer(row[3]));
         worker.version = StateDatabase::text(row[4]);
         worker.draining = StateDatabase::integer(row[5]) != 0;
+        worker.engineFingerprint = StateDatabase::text(row[6]);
+        worker.quarantined = StateDatabase::text(row[7]);
         result.push_back(std::move(worker));
     }
     return result;
@@ -350,6 +366,10 @@ std::vector<WorkerRow> JobStore::workers() {
 
 void JobStore::removeWorker(uint64_t workerId) {
     m_db.execute("DELETE FROM workers WHERE id = ?", {int64_t(workerId)});
+}
+
+void JobStore::setWorkerQuarantined(uint64_t workerId, const std::string& reason) {
+    m_db.execute("UPDATE workers SET quarantined = ? WHERE id = ?", {reason, int64_t(workerId)});
 }
 
 void JobStore::setWorkerDraining(uint64_t workerId, bool draining) {

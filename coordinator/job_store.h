@@ -34,6 +34,7 @@ struct JobRow {
     // JobStore::recordDigest() of the row as it was submitted; empty for rows stored before
     // the digest existed (or whose submission failed to store it), which are not checked.
     std::string recordSha256;
+    std::string suspect;  // why the done job's image is suspect; empty when it is not
 };
 
 // A client's retry or delete that carried a request id (RetryJobRequest.request_id,
@@ -59,10 +60,11 @@ struct UnitAttemptsRow {
 
 struct WorkerRow {
     uint64_t id = 0;
-    std::string name, version;
+    std::string name, version, engineFingerprint;
     uint32_t cores = 0;
     uint64_t memoryBytes = 0;
-    bool draining = false;  // a client drained it (no new units)
+    bool draining = false;    // a client drained it (no new units)
+    std::string quarantined;  // why an audit quarantined it; empty when it is not
 };
 
 class JobStore {
@@ -105,6 +107,9 @@ class JobStore {
     // Replaces the stored description (a new priority); the id stays the row's.
     void setJobDescription(uint64_t jobId, const v1::JobDescription& description);
     void setJobPaused(uint64_t jobId, bool paused);
+    // Records why the done job's image is suspect (a worker that rendered some of it was
+    // quarantined).
+    void setJobSuspect(uint64_t jobId, const std::string& reason);
     // The job's event log (a serialized alphorn.v1.JobEventLog), written whole each time; not
     // stored for a job the store does not have (removed meanwhile), nor over a log with a
     // higher next_sequence (a newer one).
@@ -122,6 +127,8 @@ class JobStore {
     std::vector<WorkerRow> workers();
     void removeWorker(uint64_t workerId);
     void setWorkerDraining(uint64_t workerId, bool draining);
+    // Records (or, with "", clears) why an audit quarantined the worker.
+    void setWorkerQuarantined(uint64_t workerId, const std::string& reason);
 
     // The SQL connection, for tests that damage records on purpose.
     StateDatabase& database() { return m_db; }

@@ -186,8 +186,11 @@ TEST_F(JobStoreTest, ControlsAndEventLogsAreStoredAndGoWithTheirJob) {
         store.saveJobLog(job + 1, log);  // no such job: not stored
         store.setUnitAttempts(job, 1, 2, "lease expired");
         store.clearUnitAttempts(job);
-        worker = store.addWorker(WorkerRow{0, "w", "0.1.0", 4, 1 << 20}, 1000);
+        worker = store.addWorker(
+            WorkerRow{0, "w", "0.1.0", "0123456789abcdef", 4, 1 << 20, false, ""}, 1000);
         store.setWorkerDraining(worker, true);
+        store.setWorkerQuarantined(worker, "its render of unit 3 differs");
+        store.setJobSuspect(job, "worker 2 was quarantined");
     }
     JobStore store(path());
     const JobRow row = store.jobs().at(0);
@@ -204,6 +207,9 @@ TEST_F(JobStoreTest, ControlsAndEventLogsAreStoredAndGoWithTheirJob) {
     EXPECT_EQ(store.jobLog(job + 1).events_size(), 0);
     EXPECT_TRUE(store.unitAttempts(job).empty());
     EXPECT_TRUE(store.workers().at(0).draining);
+    EXPECT_EQ(store.workers().at(0).engineFingerprint, "0123456789abcdef");
+    EXPECT_EQ(store.workers().at(0).quarantined, "its render of unit 3 differs");
+    EXPECT_EQ(row.suspect, "worker 2 was quarantined");
     store.removeJob(job);
     EXPECT_EQ(store.jobLog(job).events_size(), 0) << "the log outlived its job";
 }

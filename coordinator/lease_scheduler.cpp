@@ -30,11 +30,12 @@ const LeaseScheduler::Job& LeaseScheduler::job(uint64_t jobId) const {
 
 void LeaseScheduler::addJob(uint64_t jobId, int priority, const farm::JobGrid& grid,
                             const std::vector<bool>& merged, const std::vector<uint32_t>& attempts,
-                            bool running) {
+                            bool running, const std::string& engineFingerprint) {
     Job& added = m_jobs[jobId];
     added = Job();
     added.priority = priority;
     added.running = running;
+    added.engineFingerprint = engineFingerprint;
     added.grid = grid;
     added.units.resize(grid.unitCount());
     for (uint32_t i = 0; i < grid.unitCount(); ++i) {
@@ -52,8 +53,24 @@ void LeaseScheduler::endJob(uint64_t jobId) {
     Job& ended = job(jobId);
     ended.running = false;
     ended.pending.clear();
+    ended.audits.clear();
+    ended.failedOn.clear();
     for (UnitSlot& slot : ended.units)
         if (slot.state == UnitState::Leased) release(ended, slot);
+    for (auto& [id, worker] : m_workers) worker.auditing.erase(jobId);
+}
+
+void LeaseScheduler::restartJob(uint64_t jobId) {
+    Job& restarted = job(jobId);
+    for (UnitSlot& slot : restarted.units)
+        if (slot.state == UnitState::Leased) release(restarted, slot);
+    restarted.audits.clear();
+    for (auto& [id, worker] : m_workers) worker.auditing.erase(jobId);
+    restarted.pending.clear();
+    for (uint32_t i = 0; i < restarted.units.size(); ++i) {
+        restarted.units[i].state = UnitState::Pending;
+        if (restarted.running) restarted.pending.insert(i);
+    }
 }
 
 void LeaseScheduler::removeJob(uint64_t jobId) {
@@ -91,8 +108,12 @@ const LeaseScheduler::UnitSlot& LeaseScheduler::unit(uint64_t jobId, uint32_t un
     return job(jobId).units.at(unitIndex);
 }
 
-void LeaseScheduler::addWorker(uint64_t workerId, bool seen) {
+void LeaseScheduler::addWorker(uint64_t workerId, bool seen, const std::string& engineFingerprint,
+                               bool quarantined, const std::string& hostId) {
     Worker& worker = m_workers[workerId];
+    worker.engineFingerprint = engineFingerprint;
+    worker.quarantined = quarantined;
+    worker.host = hostId.empty() ? "worker " + std::to_string(workerId) : hostId;
     // Restored workers count as not seen for a year: they are listed dead until they call.
     worker.lastSeen = m_clock.monotonicSeconds() - (seen ? 0.0 : 365 * 24 * 3600.0);
 }
@@ -112,9 +133,117 @@ void LeaseScheduler::forgetWorker(uint64_t workerId) {
         Job& held = job(ref.jobId);
         UnitSlot& slot = held.units[ref.unitIndex];
         release(held, slot);
-        if (held.running) held.pending.insert(ref.unitIndex);
+        if (held.running && !held.audits.count(ref.unitIndex)) held.pending.insert(ref.unitIndex);
     }
     m_workers.erase(it);
+}
+
+std::vector<std::pair<uint64_t, uint32_t>> LeaseScheduler::quarantineWorker(uint64_t workerId) {
+    std::vector<std::pair<uint64_t, uint32_t>> unheld;
+    auto it = m_workers.find(workerId);
+    if (it == m_workers.end()) return unheld;
+    Worker& worker = it->second;
+    worker.quarantined = true;
+    worker.auditing.clear();
+    worker.trusted.clear();
+    for (uint64_t leaseId : std::set<uint64_t>(worker.leases)) {
+        const LeaseRef ref = m_leases.at(leaseId);
+        Job& held = job(ref.jobId);
+        release(held, held.units[ref.unitIndex]);
+        if (held.running && !held.audits.count(ref.unitIndex)) held.pending.insert(ref.unitIndex);
+    }
+    for (auto& [jobId, held] : m_jobs) {
+        for (auto audit = held.audits.begin(); audit != held.audits.end();) {
+            std::vector<uint64_t>& renderers = audit->second;
+            renderers.erase(std::remove(renderers.begin(), renderers.end(), workerId),
+                            renderers.end());
+            if (!renderers.empty()) {
+                ++audit;
+                continue;
+            }
+            unheld.emplace_back(jobId, audit->first);
+            if (held.running && held.units[audit->first].state == UnitState::Pending)
+                held.pending.insert(audit->first);
+            audit = held.audits.erase(audit);
+        }
+    }
+    return unheld;
+}
+
+bool LeaseScheduler::quarantined(uint64_t workerId) const {
+    auto it = m_workers.find(workerId);
+    return it != m_workers.end() && it->second.quarantined;
+}
+
+bool LeaseScheduler::mayRender(const Worker& worker, const Job& job) const {
+    return !worker.quarantined && worker.engineFingerprint == job.engineFingerprint;
+}
+
+bool LeaseScheduler::anotherLiveWorker(const Job& job, uint64_t workerId,
+                                       const std::vector<uint64_t>& besides,
+                                       std::optional<uint32_t> unitIndex) const {
+    const double recent = m_clock.monotonicSeconds() - m_options.leaseSeconds;
+    const std::set<std::string>* failedHosts = nullptr;
+    if (unitIndex)
+        if (auto failed = job.failedOn.find(*unitIndex); failed != job.failedOn.end())
+            failedHosts = &failed->second;
+    for (const auto& [id, worker] : m_workers)
+        if (id != workerId && worker.lastSeen >= recent && mayRender(worker, job) &&
+            std::find(besides.begin(), besides.end(), id) == besides.end() &&
+            !(failedHosts && failedHosts->count(worker.host)))
+            return true;
+    return false;
+}
+
+const std::string& LeaseScheduler::hostOf(uint64_t workerId) const {
+    static const std::string unknown = "unknown";
+    auto worker = m_workers.find(workerId);
+    return worker == m_workers.end() ? unknown : worker->second.host;
+}
+
+LeaseScheduler::Failure LeaseScheduler::failAudit(uint64_t jobId, Job& target, uint32_t unitIndex,
+                                                  uint64_t workerId) {
+    target.failedOn[unitIndex].insert(hostOf(workerId));
+    return Failure{jobId, unitIndex, target.units[unitIndex].attempts, false, true};
+}
+
+bool LeaseScheduler::liveWorkerOnAnotherHost(const Job& job, const std::string& host) const {
+    const double recent = m_clock.monotonicSeconds() - m_options.leaseSeconds;
+    for (const auto& [id, worker] : m_workers)
+        if (worker.host != host && worker.lastSeen >= recent && mayRender(worker, job)) return true;
+    return false;
+}
+
+std::string LeaseScheduler::idleReason(uint64_t workerId) const {
+    auto it = m_workers.find(workerId);
+    if (it == m_workers.end()) return "";
+    const Worker& worker = it->second;
+    if (worker.quarantined)
+        return "quarantined: an audit found its results differ from other workers' renders of "
+               "the same units";
+    std::vector<uint64_t> otherBuild;
+    std::string wanted;
+    bool waiting = false;
+    for (const auto& [id, candidate] : m_jobs) {
+        if (!candidate.running || candidate.paused ||
+            (candidate.pending.empty() && candidate.audits.empty()))
+            continue;
+        waiting = true;
+        if (candidate.engineFingerprint != worker.engineFingerprint) {
+            otherBuild.push_back(id);
+            wanted = candidate.engineFingerprint;
+        }
+    }
+    if (!waiting || otherBuild.empty()) return "";
+    std::string jobs;
+    for (size_t i = 0; i < otherBuild.size() && i < 5; ++i)
+        jobs += (i ? ", " : "") + std::to_string(otherBuild[i]);
+    if (otherBuild.size() > 5) jobs += absl::StrFormat(" and %u more", otherBuild.size() - 5);
+    return absl::StrFormat(
+        "job%s %s need%s workers of engine fingerprint %s; this worker's is %s (another "
+        "build: its units would not sum to the job's bytes)",
+        otherBuild.size() > 1 ? "s" : "", jobs, otherBuild.size() > 1 ? "" : "s", wanted,
+        worker.engineFingerprint);
 }
 
 uint32_t LeaseScheduler::leaseCount(uint64_t workerId) const {
@@ -167,40 +296,64 @@ void LeaseScheduler::release(Job& job, UnitSlot& slot) {
 
 std::optional<LeaseScheduler::Lease> LeaseScheduler::lease(uint64_t workerId) {
     auto worker = m_workers.find(workerId);
-    if (worker == m_workers.end()) return std::nullopt;
+    if (worker == m_workers.end() || worker->second.quarantined) return std::nullopt;
     // Highest priority first, then the oldest job (FIFO).
-    uint64_t bestId = 0;
-    Job* best = nullptr;
-    for (auto& [id, candidate] : m_jobs) {
-        if (!candidate.running || candidate.paused || candidate.pending.empty() ||
-            *candidate.pending.begin() >= candidate.leaseLimit)
+    std::vector<std::pair<int, uint64_t>> order;
+    for (const auto& [id, candidate] : m_jobs) {
+        if (!candidate.running || candidate.paused || !mayRender(worker->second, candidate))
             continue;
-        if (!best || candidate.priority > best->priority) {
-            best = &candidate;
-            bestId = id;
-        }
+        const bool pending =
+            !candidate.pending.empty() && *candidate.pending.begin() < candidate.leaseLimit;
+        if (pending || !candidate.audits.empty()) order.emplace_back(-candidate.priority, id);
     }
-    if (!best) return std::nullopt;
-    const uint32_t index = pickUnit(bestId, *best, workerId);
-    worker->second.lastChunk[bestId] = best->grid.chunkOf(index);
-    const uint64_t leaseId = m_nextLeaseId++;
-    farm::CoordinatorMetrics::unitLeased(best->units[index].leaseId != 0);  // 0: never leased
-    grant(bestId, *best, index, workerId, leaseId);
-    ++best->counts.leasedThisRun;
-    return Lease{leaseId, bestId, index, m_tokens.token(leaseId, workerId, bestId, index)};
+    std::sort(order.begin(), order.end());
+    for (const auto& [negativePriority, jobId] : order) {
+        Job& best = m_jobs.at(jobId);
+        const std::optional<uint32_t> index = pickUnit(jobId, best, workerId);
+        if (!index) continue;
+        worker->second.lastChunk[jobId] = best.grid.chunkOf(*index);
+        const uint64_t leaseId = m_nextLeaseId++;
+        farm::CoordinatorMetrics::unitLeased(best.units[*index].leaseId != 0);  // 0: never leased
+        grant(jobId, best, *index, workerId, leaseId);
+        ++best.counts.leasedThisRun;
+        return Lease{leaseId, jobId, *index, m_tokens.token(leaseId, workerId, jobId, *index)};
+    }
+    return std::nullopt;
 }
 
-// Locality: a worker keeps the per-pass data (photon maps) of the passes it rendered last, so
-// it gets another tile of the same pass chunk when one is pending; otherwise the first unit
-// of a chunk no other live worker is on, so each chunk's photons are traced by one worker;
-// only when every pending unit's chunk is taken does it share one (the end of a job).
-uint32_t LeaseScheduler::pickUnit(uint64_t jobId, const Job& job, uint64_t workerId) const {
+// Audits come first: their results wait in the coordinator's memory, and a worker on probation
+// waits for them. Then locality: a worker keeps the per-pass data (photon maps) of the passes it
+// rendered last, so it gets another tile of the same pass chunk when one is pending; otherwise
+// the first unit of a chunk no other live worker is on, so each chunk's photons are traced by one
+// worker; only when every pending unit's chunk is taken does it share one (the end of a job).
+std::optional<uint32_t> LeaseScheduler::pickUnit(uint64_t jobId, const Job& job,
+                                                 uint64_t workerId) const {
+    const Worker& me = m_workers.at(workerId);
+    for (const auto& [unitIndex, renderers] : job.audits) {
+        auto failed = job.failedOn.find(unitIndex);
+        if (unitIndex < job.leaseLimit && job.units[unitIndex].state == UnitState::Pending &&
+            std::find(renderers.begin(), renderers.end(), workerId) == renderers.end() &&
+            (failed == job.failedOn.end() || !failed->second.count(me.host)))
+            return unitIndex;
+    }
+    if (me.auditing.count(jobId)) return std::nullopt;  // on probation: its first result waits
+    // A unit that failed on this host goes to another one first, when one could take it.
+    const bool avoidFailures = !job.failedOn.empty() && liveWorkerOnAnotherHost(job, me.host);
+    const auto allowed = [&](uint32_t unitIndex) {
+        if (!avoidFailures) return true;
+        auto failed = job.failedOn.find(unitIndex);
+        return failed == job.failedOn.end() || !failed->second.count(me.host);
+    };
     const farm::JobGrid& grid = job.grid;
+    // The first pending unit in [from, to) below the lease limit that the worker may take.
+    const auto firstAllowed = [&](uint32_t from, uint32_t to) {
+        to = std::min(to, job.leaseLimit);
+        for (auto it = job.pending.lower_bound(from); it != job.pending.end() && *it < to; ++it)
+            if (allowed(*it)) return it;
+        return job.pending.end();
+    };
     const auto firstOfChunk = [&](uint32_t chunk) {
-        auto it = job.pending.lower_bound(chunk * grid.tileCount());
-        return it != job.pending.end() && grid.chunkOf(*it) == chunk && *it < job.leaseLimit
-                   ? it
-                   : job.pending.end();
+        return firstAllowed(chunk * grid.tileCount(), (chunk + 1) * grid.tileCount());
     };
     std::set<uint32_t> taken;
     const double recent = m_clock.monotonicSeconds() - m_options.leaseSeconds;
@@ -215,10 +368,12 @@ uint32_t LeaseScheduler::pickUnit(uint64_t jobId, const Job& job, uint64_t worke
     }
     for (auto it = job.pending.begin(); it != job.pending.end() && *it < job.leaseLimit;) {
         const uint32_t chunk = grid.chunkOf(*it);
-        if (!taken.count(chunk)) return *it;
+        if (!taken.count(chunk))
+            if (auto first = firstOfChunk(chunk); first != job.pending.end()) return *first;
         it = job.pending.lower_bound((chunk + 1) * grid.tileCount());
     }
-    return *job.pending.begin();
+    if (auto first = firstAllowed(0, UINT32_MAX); first != job.pending.end()) return *first;
+    return std::nullopt;
 }
 
 bool LeaseScheduler::renew(uint64_t workerId, uint64_t leaseId, const HeldUnit* held) {
@@ -260,8 +415,60 @@ bool LeaseScheduler::markMerged(uint64_t jobId, uint32_t unitIndex, uint64_t lea
     UnitSlot& slot = target.units[unitIndex];
     if (slot.state == UnitState::Leased) release(target, slot);
     target.pending.erase(unitIndex);  // a result from an earlier lease of a requeued unit
+    target.audits.erase(unitIndex);
+    target.failedOn.erase(unitIndex);
     slot.state = UnitState::Merged;
     return true;
+}
+
+bool LeaseScheduler::wantsAudit(uint64_t jobId, uint32_t unitIndex, uint64_t workerId) const {
+    const Job& target = job(jobId);
+    auto worker = m_workers.find(workerId);
+    if (worker == m_workers.end()) return false;
+    const bool first = !worker->second.trusted.count(jobId);
+    if (!first && m_tokens.auditDraw(jobId, unitIndex) >= m_options.auditFraction) return false;
+    return anotherLiveWorker(target, workerId, {}, unitIndex);
+}
+
+bool LeaseScheduler::holdForAudit(uint64_t jobId, uint32_t unitIndex, uint64_t leaseId,
+                                  uint64_t workerId) {
+    if (!mayMerge(jobId, unitIndex, leaseId)) return false;
+    Job& target = job(jobId);
+    UnitSlot& slot = target.units[unitIndex];
+    if (slot.state == UnitState::Leased) release(target, slot);
+    target.pending.erase(unitIndex);
+    std::vector<uint64_t>& renderers = target.audits[unitIndex];
+    if (std::find(renderers.begin(), renderers.end(), workerId) == renderers.end())
+        renderers.push_back(workerId);
+    if (auto worker = m_workers.find(workerId);
+        worker != m_workers.end() && !worker->second.trusted.count(jobId))
+        worker->second.auditing.insert(jobId);
+    return true;
+}
+
+std::vector<uint64_t> LeaseScheduler::heldResults(uint64_t jobId, uint32_t unitIndex) const {
+    const Job& target = job(jobId);
+    auto audit = target.audits.find(unitIndex);
+    return audit == target.audits.end() ? std::vector<uint64_t>() : audit->second;
+}
+
+void LeaseScheduler::passProbation(uint64_t workerId, uint64_t jobId) {
+    auto worker = m_workers.find(workerId);
+    if (worker == m_workers.end()) return;
+    worker->second.auditing.erase(jobId);
+    worker->second.trusted.insert(jobId);
+}
+
+std::vector<std::pair<uint64_t, uint32_t>> LeaseScheduler::auditsWithoutAuditor() const {
+    std::vector<std::pair<uint64_t, uint32_t>> stranded;
+    for (const auto& [jobId, candidate] : m_jobs) {
+        if (!candidate.running) continue;
+        for (const auto& [unitIndex, renderers] : candidate.audits)
+            if (candidate.units[unitIndex].state == UnitState::Pending &&
+                !anotherLiveWorker(candidate, renderers.front(), renderers, unitIndex))
+                stranded.emplace_back(jobId, unitIndex);
+    }
+    return stranded;
 }
 
 void LeaseScheduler::skipUnits(uint64_t jobId, const std::vector<uint32_t>& unitIndices) {
@@ -270,6 +477,7 @@ void LeaseScheduler::skipUnits(uint64_t jobId, const std::vector<uint32_t>& unit
         UnitSlot& slot = target.units.at(unitIndex);
         if (slot.state == UnitState::Leased) release(target, slot);
         target.pending.erase(unitIndex);
+        target.audits.erase(unitIndex);
         slot.state = UnitState::Merged;
     }
 }
@@ -285,22 +493,24 @@ bool LeaseScheduler::handBack(uint64_t jobId, uint32_t unitIndex, uint64_t lease
     if (!holds(jobId, unitIndex, leaseId)) return false;
     Job& target = job(jobId);
     release(target, target.units[unitIndex]);
-    target.pending.insert(unitIndex);
+    if (!target.audits.count(unitIndex)) target.pending.insert(unitIndex);
     farm::CoordinatorMetrics::unitHandedBack();
     return true;
 }
 
 LeaseScheduler::Failure LeaseScheduler::countFailure(uint64_t jobId, Job& target,
-                                                     uint32_t unitIndex) {
+                                                     uint32_t unitIndex, uint64_t workerId) {
     UnitSlot& slot = target.units[unitIndex];
     ++slot.attempts;
     ++target.counts.attemptsFailed;
     Failure failure{jobId, unitIndex, slot.attempts, slot.attempts >= m_options.maxAttempts};
     // A poison unit fails its job, never the farm: the job's scheduling ends here.
-    if (failure.poisoned)
+    if (failure.poisoned) {
         endJob(jobId);
-    else
-        target.pending.insert(unitIndex);
+        return failure;
+    }
+    target.failedOn[unitIndex].insert(hostOf(workerId));
+    if (!target.audits.count(unitIndex)) target.pending.insert(unitIndex);
     return failure;
 }
 
@@ -309,9 +519,11 @@ std::optional<LeaseScheduler::Failure> LeaseScheduler::failAttempt(uint64_t jobI
                                                                    uint64_t leaseId) {
     if (!holds(jobId, unitIndex, leaseId)) return std::nullopt;
     Job& target = job(jobId);
+    const uint64_t workerId = target.units[unitIndex].workerId;
     release(target, target.units[unitIndex]);
+    if (target.audits.count(unitIndex)) return failAudit(jobId, target, unitIndex, workerId);
     farm::CoordinatorMetrics::unitFailed(farm::CoordinatorMetrics::FailureCause::WorkerError);
-    return countFailure(jobId, target, unitIndex);
+    return countFailure(jobId, target, unitIndex, workerId);
 }
 
 std::vector<std::pair<LeaseScheduler::ExpiredLease, LeaseScheduler::Failure>>
@@ -330,10 +542,20 @@ LeaseScheduler::expireLeases() {
         UnitSlot& slot = target.units[ref.unitIndex];
         const ExpiredLease lost{ref.jobId, slot.workerId, ref.unitIndex};
         release(target, slot);
+        if (target.audits.count(ref.unitIndex)) {
+            result.emplace_back(lost, failAudit(ref.jobId, target, ref.unitIndex, lost.workerId));
+            continue;
+        }
         farm::CoordinatorMetrics::unitFailed(farm::CoordinatorMetrics::FailureCause::LeaseExpired);
-        result.emplace_back(lost, countFailure(ref.jobId, target, ref.unitIndex));
+        result.emplace_back(lost, countFailure(ref.jobId, target, ref.unitIndex, lost.workerId));
     }
     return result;
+}
+
+void LeaseScheduler::forgiveStall(double seconds) {
+    for (const auto& [leaseId, ref] : m_leases)
+        m_jobs.at(ref.jobId).units[ref.unitIndex].deadline += seconds;
+    for (auto& [id, worker] : m_workers) worker.lastSeen += seconds;
 }
 
 std::string LeaseScheduler::checkConsistency() const {
@@ -383,7 +605,9 @@ std::string LeaseScheduler::checkConsistency() const {
                                         jobId, i, slot.leaseId));
             }
             recount.attemptsFailed += slot.attempts;
-            if (job.pending.count(i) != (job.running && slot.state == UnitState::Pending))
+            const bool waits =
+                job.running && slot.state == UnitState::Pending && !job.audits.count(i);
+            if (job.pending.count(i) != waits)
                 problem(absl::StrFormat("job %u unit %u: pending %d, state %d, running %d", jobId,
                                         i, int(job.pending.count(i)), int(slot.state),
                                         int(job.running)));

@@ -1,6 +1,7 @@
 // The lease scheduler alone, with a clock moved by hand: priorities and FIFO, deadlines and
-// renewal, expiry as a failed attempt, poison units, fencing of results, hand-backs, re-adoption
-// by lease tokens of an earlier epoch only, and pass-chunk locality.
+// renewal, expiry as a failed attempt, poison units (tried on another worker first), fencing of
+// results, hand-backs, re-adoption by lease tokens of an earlier epoch only, pass-chunk
+// locality, engine fingerprints, audits and quarantine, and a stalled process forgiven.
 #include "coordinator/lease_scheduler.h"
 
 #include <gtest/gtest.h>
@@ -77,9 +78,9 @@ TEST_F(LeaseSchedulerTest, APoisonUnitEndsItsJobAndDropsItsLeases) {
     ASSERT_TRUE(first.has_value());
     EXPECT_FALSE(first->poisoned);
     EXPECT_TRUE(scheduler.running(1));
-    // Lease the other units until the failed one comes again.
+    // The failed unit goes to the other worker (while it is alive): lease until it comes.
     for (;;) {
-        lease = *scheduler.lease(kWorkerA);
+        lease = *scheduler.lease(kWorkerB);
         if (lease.unitIndex == first->unitIndex) break;
     }
     const auto second = scheduler.failAttempt(1, lease.unitIndex, lease.leaseId);
@@ -213,6 +214,171 @@ TEST_F(LeaseSchedulerTest, NothingPastTheLeaseLimit) {
     ASSERT_TRUE(next);
     EXPECT_EQ(next->unitIndex, 4u);
     EXPECT_EQ(scheduler.checkConsistency(), "");
+}
+
+// A worker of another build is leased nothing of the job, and told why; one of the job's build is.
+TEST_F(LeaseSchedulerTest, OnlyWorkersOfTheJobsFingerprintAreLeasedItsUnits) {
+    LeaseScheduler scheduler = make();
+    scheduler.addWorker(kWorkerA, true, "1111111111111111");
+    scheduler.addWorker(kWorkerB, true, "2222222222222222");
+    scheduler.addJob(1, 0, grid(), {}, {}, true, "2222222222222222");
+    EXPECT_FALSE(scheduler.lease(kWorkerA).has_value()) << "a worker of another build got a unit";
+    const std::string reason = scheduler.idleReason(kWorkerA);
+    EXPECT_NE(reason.find("job 1 needs workers of engine fingerprint 2222222222222222"),
+              std::string::npos)
+        << reason;
+    EXPECT_NE(reason.find("1111111111111111"), std::string::npos) << reason;
+    const auto lease = scheduler.lease(kWorkerB);
+    ASSERT_TRUE(lease.has_value());
+    EXPECT_EQ(scheduler.idleReason(kWorkerB), "");
+    // A job of A's build is A's.
+    scheduler.addJob(2, 0, grid(), {}, {}, true, "1111111111111111");
+    EXPECT_EQ(scheduler.lease(kWorkerA)->jobId, 2u);
+    EXPECT_EQ(scheduler.checkConsistency(), "");
+}
+
+// A unit that failed on a worker goes to another while one is alive; with none alive, back to it.
+TEST_F(LeaseSchedulerTest, AFailedUnitGoesToAnotherWorkerFirst) {
+    LeaseScheduler scheduler = make(1, 5);
+    scheduler.addWorker(kWorkerA, true);
+    scheduler.addWorker(kWorkerB, true);
+    scheduler.addJob(1, 0, farm::JobGrid(TileGrid(4, 4, 4, 1), 2, 1), {}, {}, true);  // 2 units
+    const auto failed = *scheduler.lease(kWorkerA);
+    ASSERT_TRUE(scheduler.failAttempt(1, failed.unitIndex, failed.leaseId).has_value());
+    // A, restarted after an OOM kill, asks again: it gets the other unit, not the one that failed.
+    const auto next = scheduler.lease(kWorkerA);
+    ASSERT_TRUE(next.has_value());
+    EXPECT_NE(next->unitIndex, failed.unitIndex);
+    EXPECT_FALSE(scheduler.lease(kWorkerA).has_value())
+        << "the worker the unit failed on got it again while another worker is alive";
+    // Restarted after an OOM kill, A registers anew on the same host: still not its unit.
+    scheduler.addWorker(kWorkerA + 10, true, "", false, "worker 1");
+    EXPECT_FALSE(scheduler.lease(kWorkerA + 10).has_value())
+        << "a restart of the worker the unit failed on got it again";
+    EXPECT_EQ(scheduler.lease(kWorkerB)->unitIndex, failed.unitIndex);
+    scheduler.forgetWorker(kWorkerA + 10);
+    // Once B fails it too and goes silent, A is the only worker left: it gets the unit again.
+    const auto again = scheduler.unitsLeasedTo(kWorkerB);
+    ASSERT_EQ(again.size(), 1u);
+    ASSERT_TRUE(
+        scheduler.failAttempt(1, failed.unitIndex, scheduler.unit(1, failed.unitIndex).leaseId)
+            .has_value());
+    m_clock.advance(11);
+    scheduler.touchWorker(kWorkerA);
+    EXPECT_EQ(scheduler.lease(kWorkerA)->unitIndex, failed.unitIndex);
+    EXPECT_EQ(scheduler.checkConsistency(), "");
+}
+
+// A process that stood still longer than a lease charges nobody when it runs again.
+TEST_F(LeaseSchedulerTest, AStallIsForgiven) {
+    LeaseScheduler scheduler = make();
+    scheduler.addWorker(kWorkerA, true);
+    scheduler.addJob(1, 0, grid(), {}, {}, true);
+    const auto lease = *scheduler.lease(kWorkerA);
+    m_clock.advance(60);
+    scheduler.forgiveStall(60);
+    EXPECT_TRUE(scheduler.expireLeases().empty()) << "a lease expired by the process's own stall";
+    EXPECT_LT(scheduler.secondsSinceSeen(kWorkerA), 1.0);
+    EXPECT_TRUE(scheduler.renew(kWorkerA, lease.leaseId, nullptr));
+    m_clock.advance(11);
+    EXPECT_EQ(scheduler.expireLeases().size(), 1u) << "silence after the stall still counts";
+    EXPECT_EQ(scheduler.checkConsistency(), "");
+}
+
+// A worker's first result of a job waits for another worker's render of the same unit; until it
+// passes, the worker gets no other unit of the job, and the audit goes first to the other one.
+TEST_F(LeaseSchedulerTest, AFirstResultIsAuditedByAnotherWorker) {
+    LeaseScheduler scheduler = make();
+    scheduler.addWorker(kWorkerA, true);
+    scheduler.addWorker(kWorkerB, true);
+    scheduler.addJob(1, 0, grid(), {}, {}, true);
+    const auto first = *scheduler.lease(kWorkerA);
+    ASSERT_TRUE(scheduler.wantsAudit(1, first.unitIndex, kWorkerA));
+    ASSERT_TRUE(scheduler.holdForAudit(1, first.unitIndex, first.leaseId, kWorkerA));
+    EXPECT_EQ(scheduler.heldResults(1, first.unitIndex), std::vector<uint64_t>{kWorkerA});
+    EXPECT_EQ(scheduler.checkConsistency(), "");
+    EXPECT_FALSE(scheduler.lease(kWorkerA).has_value()) << "a worker on probation got more units";
+    const auto audit = *scheduler.lease(kWorkerB);
+    EXPECT_EQ(audit.unitIndex, first.unitIndex) << "the audit did not go first";
+    EXPECT_TRUE(scheduler.auditsWithoutAuditor().empty());
+    ASSERT_TRUE(scheduler.markMerged(1, audit.unitIndex, audit.leaseId));
+    scheduler.passProbation(kWorkerA, 1);
+    scheduler.passProbation(kWorkerB, 1);
+    EXPECT_TRUE(scheduler.heldResults(1, first.unitIndex).empty());
+    EXPECT_TRUE(scheduler.lease(kWorkerA).has_value());
+    // Trusted now: only the audit fraction's draw picks its units (0.01 here).
+    int audited = 0;
+    for (uint32_t unit = 0; unit < 1000; ++unit) audited += scheduler.wantsAudit(1, unit, kWorkerA);
+    EXPECT_GT(audited, 0);
+    EXPECT_LT(audited, 40);
+    EXPECT_EQ(scheduler.checkConsistency(), "");
+}
+
+// With nobody else alive, a result cannot be audited: it is not held. A held one whose other
+// workers left is reported stranded.
+TEST_F(LeaseSchedulerTest, NoAuditWithoutAnotherLiveWorker) {
+    LeaseScheduler scheduler = make();
+    scheduler.addWorker(kWorkerA, true);
+    scheduler.addJob(1, 0, grid(), {}, {}, true);
+    const auto alone = *scheduler.lease(kWorkerA);
+    EXPECT_FALSE(scheduler.wantsAudit(1, alone.unitIndex, kWorkerA));
+    scheduler.addWorker(kWorkerB, true, "another build");
+    EXPECT_FALSE(scheduler.wantsAudit(1, alone.unitIndex, kWorkerA))
+        << "a worker of another build cannot audit";
+    scheduler.addWorker(3, true);
+    ASSERT_TRUE(scheduler.wantsAudit(1, alone.unitIndex, kWorkerA));
+    ASSERT_TRUE(scheduler.holdForAudit(1, alone.unitIndex, alone.leaseId, kWorkerA));
+    EXPECT_TRUE(scheduler.auditsWithoutAuditor().empty());
+    m_clock.advance(11);
+    scheduler.touchWorker(kWorkerA);
+    const auto stranded = scheduler.auditsWithoutAuditor();
+    ASSERT_EQ(stranded.size(), 1u);
+    EXPECT_EQ(stranded[0], std::make_pair(uint64_t(1), alone.unitIndex));
+    EXPECT_EQ(scheduler.checkConsistency(), "");
+}
+
+// A quarantined worker is leased nothing; its leases go back, its held results are forgotten.
+TEST_F(LeaseSchedulerTest, AQuarantinedWorkerGetsNothingAndLosesItsHeldResults) {
+    LeaseScheduler scheduler = make();
+    scheduler.addWorker(kWorkerA, true);
+    scheduler.addWorker(kWorkerB, true);
+    scheduler.addJob(1, 0, grid(), {}, {}, true);
+    scheduler.addJob(2, 0, grid(), {}, {}, true);
+    const auto held = *scheduler.lease(kWorkerA);
+    ASSERT_TRUE(scheduler.holdForAudit(held.jobId, held.unitIndex, held.leaseId, kWorkerA));
+    const auto out = *scheduler.lease(kWorkerA);  // a unit of the other job
+    EXPECT_NE(out.jobId, held.jobId);
+    const auto unheld = scheduler.quarantineWorker(kWorkerA);
+    EXPECT_EQ(unheld, (std::vector<std::pair<uint64_t, uint32_t>>{{held.jobId, held.unitIndex}}));
+    EXPECT_TRUE(scheduler.quarantined(kWorkerA));
+    EXPECT_EQ(scheduler.leaseCount(kWorkerA), 0u);
+    EXPECT_FALSE(scheduler.lease(kWorkerA).has_value());
+    EXPECT_NE(scheduler.idleReason(kWorkerA).find("quarantined"), std::string::npos);
+    EXPECT_TRUE(scheduler.heldResults(held.jobId, held.unitIndex).empty());
+    EXPECT_EQ(scheduler.checkConsistency(), "");
+    // Both units wait again, for B.
+    std::set<std::pair<uint64_t, uint32_t>> leased;
+    while (const auto lease = scheduler.lease(kWorkerB))
+        leased.insert({lease->jobId, lease->unitIndex});
+    EXPECT_TRUE(leased.count({held.jobId, held.unitIndex}));
+    EXPECT_TRUE(leased.count({out.jobId, out.unitIndex}));
+}
+
+// A restarted job has every unit pending again and no lease out.
+TEST_F(LeaseSchedulerTest, ARestartedJobStartsAfresh) {
+    LeaseScheduler scheduler = make();
+    scheduler.addWorker(kWorkerA, true);
+    scheduler.addJob(1, 0, grid(), {}, {}, true);
+    const auto merged = *scheduler.lease(kWorkerA);
+    ASSERT_TRUE(scheduler.markMerged(1, merged.unitIndex, merged.leaseId));
+    const auto out = *scheduler.lease(kWorkerA);
+    scheduler.restartJob(1);
+    EXPECT_EQ(scheduler.leaseCount(kWorkerA), 0u);
+    EXPECT_FALSE(scheduler.renew(kWorkerA, out.leaseId, nullptr)) << "a lease survived the restart";
+    EXPECT_EQ(scheduler.checkConsistency(), "");
+    int leases = 0;
+    while (scheduler.lease(kWorkerA)) ++leases;
+    EXPECT_EQ(leases, 8);
 }
 
 }  // namespace

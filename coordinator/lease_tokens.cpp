@@ -20,6 +20,15 @@ std::string LeaseTokens::tokenOfEpoch(uint64_t epoch, uint64_t leaseId, uint64_t
     return token;
 }
 
+double LeaseTokens::auditDraw(uint64_t jobId, uint32_t unitIndex) const {
+    // Epoch 0 is no process's (epochs count from 1) and no lease has the largest id: the draw
+    // is never some lease's token.
+    const std::string mac = tokenOfEpoch(0, UINT64_MAX, 0, jobId, unitIndex);
+    uint64_t bits = 0;
+    std::memcpy(&bits, mac.data() + sizeof(uint64_t), sizeof bits);
+    return double(bits >> 11) * 0x1p-53;
+}
+
 bool LeaseTokens::grantedEarlier(const std::string& token, uint64_t leaseId, uint64_t workerId,
                                  uint64_t jobId, uint32_t unitIndex) const {
     uint64_t epoch = 0;

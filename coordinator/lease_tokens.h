@@ -24,6 +24,10 @@ class LeaseTokens {
     bool grantedEarlier(const std::string& token, uint64_t leaseId, uint64_t workerId,
                         uint64_t jobId, uint32_t unitIndex) const;
 
+    // A number in [0, 1) drawn from the unit's id with this key: whether the unit is audited
+    // (LeaseScheduler). Secret like the tokens, so no worker can tell which units are.
+    double auditDraw(uint64_t jobId, uint32_t unitIndex) const;
+
   private:
     std::string tokenOfEpoch(uint64_t epoch, uint64_t leaseId, uint64_t workerId, uint64_t jobId,
                              uint32_t unitIndex) const;

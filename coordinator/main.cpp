@@ -1,6 +1,7 @@
 // alphorn-coordinator: the farm's long-running daemon. It accepts jobs from clients, leases
 // units to workers, merges their results exactly and checkpoints every job, so that a restart
 // on the same --state-dir resumes everything. See docs/operations.md.
+#include "common/farm/engine_fingerprint.h"
 #include "common/farm/files.h"
 #include "common/farm/http_server.h"
 #include "common/farm/metrics.h"
@@ -12,6 +13,7 @@
 #include "coordinator/metrics.h"
 #include "coordinator/services.h"
 
+#include <absl/strings/str_format.h>
 #include <CLI/CLI.hpp>
 
 #include <sys/resource.h>
@@ -43,7 +45,8 @@ void raiseOpenFileLimit() {
 int main(int argc, char** argv) {
     CLI::App app{
         "alphorn-coordinator: schedules render units to workers and merges their results."};
-    app.set_version_flag("--version", std::string("alphorn-coordinator ") + ALPHORN_VERSION);
+    app.set_version_flag("--version", std::string("alphorn-coordinator ") + ALPHORN_VERSION +
+                                          " (engine " + farm::engineFingerprint() + ")");
     std::string listen = "127.0.0.1:7700", clientTokenFile, workerTokenFile, tlsCert, tlsKey,
                 portFile;
     CoordinatorOptions options;
@@ -65,8 +68,16 @@ int main(int argc, char** argv) {
                    "Seconds a unit lease lasts without a heartbeat")
         ->check(farm::kFinite & CLI::Range(0.2, 86400.0));
     app.add_option("--max-attempts", options.maxAttempts,
-                   "Failed attempts after which a unit fails its job")
+                   "Failed attempts of one unit (worker errors and expired leases, counted over "
+                   "all workers) after which it fails its job; a unit that failed on a worker "
+                   "goes to another one first while one is alive")
         ->check(CLI::Range(1, 1000));
+    app.add_option("--audit", options.auditFraction,
+                   "Share of units rendered again by a second worker and compared byte for byte "
+                   "before merging (besides each worker's first unit of each job, always "
+                   "audited); a worker whose result a third render contradicts is quarantined")
+        ->capture_default_str()
+        ->check(farm::kFinite & CLI::Range(0.0, 1.0));
     app.add_option("--max-blob-bytes", options.maxBlobBytes, "Largest blob accepted");
     app.add_option("--max-bundle-bytes", options.maxBundleBytes, "Largest scene bundle accepted");
     app.add_option("--max-image-pixels", options.maxImagePixels,
@@ -218,7 +229,14 @@ int main(int argc, char** argv) {
         coordinator.stop();
         // The merged work that could not be saved is not lost for the image (a restart renders
         // it again), but whoever stopped the coordinator must hear that the state disk failed.
-        return coordinator.jobsUnsavedAtStop() > 0 ? 1 : 0;
+        if (coordinator.jobsUnsavedAtStop() == 0) return 0;
+        std::cerr << absl::StrFormat(
+            "alphorn-coordinator: the state disk refused the last checkpoint of %d running "
+            "job(s): %u unit(s) merged since their previous checkpoints were not saved and will "
+            "be rendered again after a restart (the images stay right; only that work is lost). "
+            "Free space or fix the disk before starting again.\n",
+            coordinator.jobsUnsavedAtStop(), coordinator.unitsUnsavedAtStop());
+        return 1;
     } catch (const std::exception& e) {
         std::cerr << "alphorn-coordinator: error: " << e.what() << "\n";
         return 1;

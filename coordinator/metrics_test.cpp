@@ -1,6 +1,7 @@
 // The coordinator's /metrics follow a job through a real Coordinator (no sockets): blobs stored,
 // units pending, leased and merged, samples, jobs and workers by state, checkpoints.
 #include "coordinator/metrics.h"
+#include "common/farm/build_identity.h"
 
 #include "common/farm/metrics.h"
 #include "common/scene/accel.h"
@@ -53,8 +54,7 @@ TEST_F(CoordinatorMetricsTest, FollowJobsUnitsWorkersAndBlobs) {
     const v1::JobStatus job = coordinator.submit(request);
     ASSERT_EQ(job.units_total(), 12u);  // 2 passes x (3 x 2 tiles of 16 px)
     v1::RegisterRequest registration;
-    registration.set_version(ALPHORN_VERSION);
-    registration.set_platform(renderPlatform());
+    farm::describeThisBuild(registration);
     registration.set_name("metrics-worker");
     const uint64_t worker = coordinator.registerWorker(registration);
 

@@ -4,6 +4,7 @@
 #include "coordinator/coordinator.h"
 
 #include "common/core/system_memory.h"
+#include "common/farm/engine_fingerprint.h"
 #include "coordinator/checkpoint.h"
 #include "coordinator/log.h"
 
@@ -47,7 +48,7 @@ void Coordinator::resume() {
             job->grid = farm::JobGrid();
             job->film = std::make_unique<JobFilm>(job->grid, "");
             job->memoryBytes = 0;
-            m_scheduler->addJob(job->id, 0, job->grid, {}, {}, false);
+            m_scheduler->addJob(job->id, 0, job->grid, {}, {}, false, "");
             // The job is listed as failed and kept for --keep-finished-hours from now; a record
             // that was failed or cancelled already keeps its own error and time. Whatever the
             // damage, nothing is deleted at start.
@@ -133,6 +134,7 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
                 formatBytes(m_options.maxMemoryBytes));
     }
     job.filterBorder = row.filterBorder;
+    job.suspect = row.suspect;
     job.grid =
         farm::JobGrid(TileGrid(row.width, row.height, int(settings.tile_size()), row.filterBorder,
                                row.smallerRadius ? SmallerRadius::Kept : SmallerRadius::None),
@@ -168,8 +170,12 @@ void Coordinator::resumeJob(Job& job, const JobRow& row) {
             running = true;
         }
     }
+    // A job admitted before jobs carried a fingerprint was admitted by an earlier build; the
+    // closest guess is this one's, which has the version that build had (registration checks).
+    if (job.description.settings().engine_fingerprint().empty())
+        job.description.mutable_settings()->set_engine_fingerprint(farm::engineFingerprint());
     m_scheduler->addJob(job.id, job.description.settings().priority(), job.grid, job.film->merged(),
-                        attempts, running);
+                        attempts, running, job.description.settings().engine_fingerprint());
     if (!running) return;
     // A crash inside submit() between the job's record and its directory leaves a running job
     // without one: it starts from nothing, and its checkpoints go there.

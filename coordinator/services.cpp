@@ -488,10 +488,6 @@ grpc::Status WorkerServiceImpl::ReportResult(grpc::ServerContext* context,
         response->set_disposition(disposition);
         if (disposition == v1::RESULT_MERGED)
             farm::CoordinatorMetrics::resultMerged(call.seconds());
-        if (disposition == v1::RESULT_MERGED)
-            logInfo("unit.merged",
-                    {field("job", header.job_id()), field("unit", header.unit_index()),
-                     field("worker", header.worker_id()), field("bytes", data.size())});
         return grpc::Status::OK;
     });
 }

@@ -14,6 +14,7 @@
 //
 // Usage: alphorn_coordinator_simulation [--seeds N] [--first-seed S] [--seed S] [--steps K]
 //        [--verbose]
+#include "common/farm/build_identity.h"
 #include "common/farm/bundle.h"
 #include "common/farm/convert.h"
 #include "common/farm/files.h"
@@ -35,6 +36,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <optional>
 #include <set>
@@ -193,6 +195,7 @@ class Simulation {
     [[noreturn]] void violate(const std::string& what) { throw Violation{what}; }
     void note(const std::string& line) {
         for (const char* event : {"RESULT_MERGED",
+                                  "RESULT_HELD",
                                   "RESULT_DISCARDED",
                                   "RESULT_RECORDED",
                                   "crash and restart",
@@ -228,6 +231,9 @@ class Simulation {
         options.leaseSeconds = 10;
         options.checkpointIntervalSeconds = 5;
         options.maxAttempts = 4;
+        // The simulation's clock jumps up to 15 s between ticks to stand for time that passed
+        // while the coordinator ran: no stall (tested on its own in coordinator_test.cpp).
+        options.stallSeconds = std::numeric_limits<double>::infinity();
         options.keepFinishedSeconds = m_keep;
         options.maxMemoryBytes = uint64_t(1) << 30;
         m_coordinator = std::make_unique<Coordinator>(options, m_clock);
@@ -246,8 +252,7 @@ class Simulation {
         worker = SimWorker();
         const size_t known = m_coordinator->listWorkers(true).size();
         v1::RegisterRequest request;
-        request.set_version(ALPHORN_VERSION);
-        request.set_platform(renderPlatform());
+        farm::describeThisBuild(request);
         request.set_name("sim");
         try {
             worker.id = m_coordinator->registerWorker(request);

@@ -11,9 +11,11 @@ void WorkerRegistry::restore(const WorkerRow& row) {
     worker.info.set_cores(row.cores);
     worker.info.set_memory_bytes(row.memoryBytes);
     worker.info.set_version(row.version);
+    worker.info.set_engine_fingerprint(row.engineFingerprint);
+    worker.quarantined = row.quarantined;
     worker.lastContactWall = m_clock.wallSeconds();
     worker.draining = row.draining;
-    m_scheduler.addWorker(row.id, false);
+    m_scheduler.addWorker(row.id, false, row.engineFingerprint, !row.quarantined.empty());
     m_workers[row.id] = std::move(worker);
 }
 
@@ -24,8 +26,9 @@ void WorkerRegistry::add(uint64_t workerId, const v1::RegisterRequest& request) 
     worker.info.set_cores(request.cores());
     worker.info.set_memory_bytes(request.memory_bytes());
     worker.info.set_version(request.version());
+    worker.info.set_engine_fingerprint(request.engine_fingerprint());
     worker.lastContactWall = m_clock.wallSeconds();
-    m_scheduler.addWorker(workerId, true);
+    m_scheduler.addWorker(workerId, true, request.engine_fingerprint(), false, request.host_id());
 }
 
 WorkerRegistry::Worker* WorkerRegistry::touch(uint64_t workerId) {
@@ -100,6 +103,7 @@ v1::WorkerInfo WorkerRegistry::info(uint64_t workerId, const Worker& worker) con
         info.set_state(v1::WORKER_STATE_ALIVE);
     info.set_draining(worker.draining || worker.exiting);
     info.set_exiting(worker.exiting);
+    info.set_quarantined(worker.quarantined);
     if (worker.renderSeconds > 0) {
         info.set_samples_per_second(double(worker.samples) / worker.renderSeconds);
         info.set_rays_per_second(double(worker.rays) / worker.renderSeconds);

@@ -29,6 +29,7 @@ class WorkerRegistry {
         // Its merged units in this process: samples, rays and its own render seconds.
         uint64_t samples = 0, rays = 0;
         double renderSeconds = 0;
+        std::string quarantined;  // why an audit quarantined it (stored); empty when it is not
     };
     // A unit a worker holds a lease on.
     struct HeldUnit {

@@ -1,4 +1,5 @@
 // alphorn-worker: renders units leased from an alphorn-coordinator. See docs/operations.md.
+#include "common/farm/engine_fingerprint.h"
 #include "common/farm/files.h"
 #include "common/farm/http_server.h"
 #include "common/farm/log.h"
@@ -18,7 +19,8 @@ using namespace alphorn;
 
 int main(int argc, char** argv) {
     CLI::App app{"alphorn-worker: renders units for an alphorn-coordinator."};
-    app.set_version_flag("--version", std::string("alphorn-worker ") + ALPHORN_VERSION);
+    app.set_version_flag("--version", std::string("alphorn-worker ") + ALPHORN_VERSION +
+                                          " (engine " + farm::engineFingerprint() + ")");
     worker::WorkerOptions options;
     std::string tokenFile;
     double cacheGiB = 4.0;

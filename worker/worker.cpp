@@ -1,4 +1,5 @@
 #include "worker/worker.h"
+#include "common/farm/build_identity.h"
 
 #include "common/core/error.h"
 #include "common/core/system_memory.h"
@@ -80,6 +81,16 @@ void delayIfTestHookSet() {
         std::this_thread::sleep_for(std::chrono::milliseconds(std::atoi(delay)));
 }
 
+// Test hook (documented in docs/operations.md): ALPHORN_TEST_PERTURB_RESULTS=1 stands for a
+// renderer that is wrong (a bad build, a damaged scene file, faulty memory): every unit's film
+// gets one unit of fixed point more red in its middle pixel. The audit tests use it; nothing
+// else sets it.
+void perturbIfTestHookSet(FilmBlock& block) {
+    const char* hook = std::getenv("ALPHORN_TEST_PERTURB_RESULTS");
+    if (!hook || std::string(hook) != "1" || block.width() == 0 || block.height() == 0) return;
+    block.at(block.x0() + block.width() / 2, block.y0() + block.height() / 2).rgb[0] += 1;
+}
+
 using Delivery = farm::WorkerMetrics::Delivery;
 
 Delivery deliveryOf(v1::ResultDisposition disposition) {
@@ -88,6 +99,8 @@ Delivery deliveryOf(v1::ResultDisposition disposition) {
             return Delivery::Merged;
         case v1::RESULT_DISCARDED:
             return Delivery::Discarded;
+        case v1::RESULT_HELD:
+            return Delivery::Held;
         default:
             return Delivery::Recorded;  // a failure or a hand-back
     }
@@ -101,6 +114,29 @@ uint64_t photonsTraced(const PassData* pass) {
 }
 
 // Everything the scene a unit is rendered with depends on, as one comparable string.
+// The host id kept in the cache directory (made on first use): 16 hex digits.
+std::string hostIdOf(const std::string& cacheDirectory) {
+    const std::string path = (fs::path(cacheDirectory) / "host-id").string();
+    std::error_code error;
+    if (fs::exists(path, error)) {
+        try {
+            const std::string stored = farm::readFile(path);
+            if (stored.size() == 16 &&
+                stored.find_first_not_of("0123456789abcdef") == std::string::npos)
+                return stored;
+        } catch (const Error&) {
+            // Unreadable: made anew below.
+        }
+    }
+    const std::string made = farm::generateToken().substr(0, 16);
+    try {
+        farm::writeFileAtomically(path, made);
+    } catch (const Error&) {
+        // A cache that cannot be written is refused by run(), saying so; this id lasts a run.
+    }
+    return made;
+}
+
 std::string jobIdentity(const v1::JobDescription& job) {
     v1::JobDescription identity;
     identity.set_job_id(job.job_id());
@@ -122,6 +158,7 @@ std::string jobIdentity(const v1::JobDescription& job) {
 Worker::Worker(WorkerOptions options)
     : m_options(std::move(options)),
       m_cacheLock(m_options.cacheDirectory, {"cache directory", "worker", "--cache-dir"}),
+      m_hostId(hostIdOf(m_options.cacheDirectory)),
       m_channel(farm::makeChannel(m_options.coordinator, m_options.tlsCaPath)),
       m_stub(v1::WorkerService::NewStub(m_channel)),
       m_cache((fs::path(m_options.cacheDirectory) / "blobs").string(), m_options.cacheBytes),
@@ -184,8 +221,8 @@ void Worker::registerWithCoordinator() {
         request.set_cores(m_options.threads > 0 ? m_options.threads
                                                 : std::thread::hardware_concurrency());
         request.set_memory_bytes(physicalMemoryBytes());
-        request.set_version(ALPHORN_VERSION);
-        request.set_platform(renderPlatform());
+        farm::describeThisBuild(request);
+        request.set_host_id(m_hostId);
         v1::RegisterResponse response;
         auto ctx = context(m_options.registerTimeout);
         grpc::Status status = m_stub->Register(ctx.get(), request, &response);
@@ -391,6 +428,7 @@ std::optional<Worker::Result> Worker::renderLease(const v1::AcquireWorkResponse&
             header.set_handed_back(true);  // stopping: give the unit back unrendered
             return result;
         }
+        perturbIfTestHookSet(block);
         header.set_block_x0(block.x0());
         header.set_block_y0(block.y0());
         header.set_block_width(block.width());
@@ -543,6 +581,7 @@ int Worker::run() {
     m_heartbeat = std::thread([this] { heartbeatLoop(); });
     farm::RetryPolicy retry = makeRetryPolicy();
     bool drainedByClient = false;
+    std::string idleReason;  // why the coordinator gives this worker no unit, as it last said
     farm::Stopwatch askingForWork;
     while (m_stopRequests == 0) {
         if (m_mustRegister) {
@@ -585,6 +624,15 @@ int Worker::run() {
             drainedByClient = lease.draining();
             logInfo(drainedByClient ? "worker.drain_requested" : "worker.undrained",
                     {field("worker", m_workerId.load()), field("by", "client")});
+        }
+        if (lease.idle_reason() != idleReason) {
+            // Said once each time it changes: a worker of another build waits beside the farm.
+            idleReason = lease.idle_reason();
+            if (idleReason.empty())
+                logInfo("worker.eligible", {field("worker", m_workerId.load())});
+            else
+                logWarning("worker.ineligible",
+                           {field("worker", m_workerId.load()), field("reason", idleReason)});
         }
         if (!lease.has_work()) {
             // askingForWork runs from the end of the last unit.

@@ -114,6 +114,9 @@ class Worker {
     WorkerOptions m_options;
     // Taken before the cache is touched: a second worker on the same cache directory is refused.
     farm::DirectoryLock m_cacheLock;
+    // RegisterRequest.host_id: kept in the cache directory, so a restarted worker is known as
+    // the same host.
+    std::string m_hostId;
     std::shared_ptr<grpc::Channel> m_channel;
     std::unique_ptr<v1::WorkerService::Stub> m_stub;
     BlobCache m_cache;

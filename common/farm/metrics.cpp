@@ -96,6 +96,22 @@ struct CoordinatorFamilies {
                                  "is not counted again)");
     Counter& blobCount =
         counter(*registry, "alphorn_blobs_uploaded_total", "Blobs uploaded and stored");
+    prometheus::Family<Counter>& auditFamily =
+        BuildCounter()
+            .Name("alphorn_units_audited_total")
+            .Help(
+                "Units rendered by a second worker to compare results: agreed, disagreed (a "
+                "third worker decides) or unaudited (no other worker could render it; merged "
+                "as delivered)")
+            .Register(*registry);
+    Counter& auditAgreed = auditFamily.Add({{"outcome", "agreed"}});
+    Counter& auditDisagreed = auditFamily.Add({{"outcome", "disagreed"}});
+    Counter& auditUnaudited = auditFamily.Add({{"outcome", "unaudited"}});
+    Counter& quarantined = counter(*registry, "alphorn_workers_quarantined_total",
+                                   "Workers an audit found rendering wrong results");
+    Counter& restarted = counter(*registry, "alphorn_jobs_restarted_total",
+                                 "Running jobs rendered again from nothing because a "
+                                 "quarantined worker had merged into them");
 
     CoordinatorFamilies() { addBuildInfo(*registry); }
 };
@@ -132,11 +148,13 @@ struct WorkerFamilies {
             .Help(
                 "Results that left this worker, by the coordinator's answer: merged, "
                 "discarded (merged already or reassigned), recorded (a failure or hand-back), "
-                "refused, or abandoned (stopping, or the worker could not register again)")
+                "held (kept for an audit), refused, or abandoned (stopping, or the worker could "
+                "not register again)")
             .Register(*registry);
     Counter& deliveredMerged = deliveredFamily.Add({{"outcome", "merged"}});
     Counter& deliveredDiscarded = deliveredFamily.Add({{"outcome", "discarded"}});
     Counter& deliveredRecorded = deliveredFamily.Add({{"outcome", "recorded"}});
+    Counter& deliveredHeld = deliveredFamily.Add({{"outcome", "held"}});
     Counter& deliveredRefused = deliveredFamily.Add({{"outcome", "refused"}});
     Counter& deliveredAbandoned = deliveredFamily.Add({{"outcome", "abandoned"}});
     Histogram& delivery = histogram(*registry, "alphorn_worker_delivery_seconds",
@@ -179,6 +197,22 @@ void CoordinatorMetrics::unitFailed(FailureCause cause) {
 
 void CoordinatorMetrics::unitHandedBack() {
     coordinatorFamilies().handedBack.Increment();
+}
+
+void CoordinatorMetrics::unitAudited(AuditOutcome outcome) {
+    auto& families = coordinatorFamilies();
+    (outcome == AuditOutcome::Agreed      ? families.auditAgreed
+     : outcome == AuditOutcome::Disagreed ? families.auditDisagreed
+                                          : families.auditUnaudited)
+        .Increment();
+}
+
+void CoordinatorMetrics::workerQuarantined() {
+    coordinatorFamilies().quarantined.Increment();
+}
+
+void CoordinatorMetrics::jobRestarted() {
+    coordinatorFamilies().restarted.Increment();
 }
 
 void CoordinatorMetrics::leaseWaited(double seconds) {
@@ -244,6 +278,9 @@ void WorkerMetrics::resultDelivered(Delivery outcome, double seconds) {
             break;
         case Delivery::Recorded:
             f.deliveredRecorded.Increment();
+            break;
+        case Delivery::Held:
+            f.deliveredHeld.Increment();
             break;
         case Delivery::Refused:
             f.deliveredRefused.Increment();

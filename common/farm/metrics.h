@@ -60,6 +60,15 @@ struct CoordinatorMetrics {
     static void checkpointFailed();
     // A blob upload was stored (not counted when the blob was there already).
     static void blobStored(uint64_t bytes);
+    // How an audited unit ended: two workers' results agreed, disagreed (a third decides), or
+    // the held result was merged unaudited because no other worker could render it.
+    enum class AuditOutcome { Agreed, Disagreed, Unaudited };
+    static void unitAudited(AuditOutcome outcome);
+    // An audit found a worker's results wrong.
+    static void workerQuarantined();
+    // A running job was rendered again from nothing because a quarantined worker had merged
+    // into it.
+    static void jobRestarted();
 };
 
 // Events of a worker.
@@ -77,8 +86,9 @@ struct WorkerMetrics {
     // Per-pass data (a photon map) was built: `photons` photon paths traced.
     static void passDataBuilt(uint64_t photons);
     // Merged; discarded (merged already or reassigned); recorded (a failure or a hand-back the
-    // coordinator took note of); refused; abandoned (stopping, or could not register again).
-    enum class Delivery { Merged, Discarded, Recorded, Refused, Abandoned };
+    // coordinator took note of); held for an audit; refused; abandoned (stopping, or could not
+    // register again).
+    enum class Delivery { Merged, Discarded, Recorded, Held, Refused, Abandoned };
     // A result left the worker's hands, `seconds` after its first delivery attempt.
     static void resultDelivered(Delivery outcome, double seconds);
 };

@@ -162,7 +162,9 @@ async function refreshJobs() {
     const row = element('tr', {'data-job': job.job_id},
         element('td', {class: 'number'}, element('a', {href: `/dashboard/job?id=${job.job_id}`, text: job.job_id})),
         element('td', {text: job.settings.name || '–'}),
-        element('td', {class: `state ${state}`, text: state}),
+        job.suspect
+          ? element('td', {class: 'state failed', text: `${state} (suspect)`, title: job.suspect})
+          : element('td', {class: `state ${state}`, text: state}),
         element('td', {class: 'number', text: job.settings.priority}),
         element('td', {}, progressBar(job.units_done, job.units_total)),
         element('td', {class: 'number', text: passesText(job)}),
@@ -209,6 +211,9 @@ function showFacts(job) {
   fact(facts, 'Workers', String(job.active_workers));
   fact(facts, 'Failed attempts', String(job.attempts_failed));
   if (job.error) fact(facts, 'Error', job.error);
+  if (job.suspect) fact(facts, 'Suspect', job.suspect);
+  if (job.units_audited) fact(facts, 'Units audited', `${job.units_audited}` +
+      (job.audits_waiting ? ` (${job.audits_waiting} waiting for a second render)` : ''));
   list.replaceWith(facts);
   facts.querySelector('dd').className = `state ${state}`;
 
@@ -389,7 +394,9 @@ async function refreshWorkers() {
     return element('tr', {'data-worker': worker.worker_id},
         element('td', {class: 'number', text: worker.worker_id}),
         element('td', {text: worker.name}),
-        element('td', {class: `state ${state}`, text: state + (worker.exiting ? ' (exiting)' : '')}),
+        worker.quarantined
+          ? element('td', {class: 'state quarantined', text: 'quarantined', title: worker.quarantined})
+          : element('td', {class: `state ${state}`, text: state + (worker.exiting ? ' (exiting)' : '')}),
         element('td', {text: units}),
         element('td', {class: 'number', text: worker.units_merged}),
         element('td', {class: 'number', text: rate(worker.samples_per_second)}),
@@ -397,6 +404,7 @@ async function refreshWorkers() {
         element('td', {class: 'number', text: worker.cores}),
         element('td', {class: 'number', text: duration(worker.seconds_since_seen) + ' ago'}),
         element('td', {text: worker.version}),
+        element('td', {class: 'fingerprint', text: worker.engine_fingerprint || '–'}),
         element('td', {}, button));
   }));
   document.getElementById('empty').hidden = answer.workers.length > 0;

@@ -5,6 +5,7 @@
 // checked.
 #include "alphorn/v1/client_service.grpc.pb.h"
 #include "alphorn/v1/worker_service.grpc.pb.h"
+#include "common/farm/build_identity.h"
 #include "common/farm/film_codec.h"
 #include "common/farm/rpc.h"
 #include "common/farm/sha256.h"
@@ -88,8 +89,7 @@ std::map<std::string, grpc::StatusCode> callEverything(
     }
     {
         v1::RegisterRequest request;
-        request.set_version(ALPHORN_VERSION);
-        request.set_platform(renderPlatform());
+        farm::describeThisBuild(request);
         request.set_name("probe");
         v1::RegisterResponse r;
         codes["Register"] = worker->Register(contextWith(token).get(), request, &r).error_code();
@@ -306,8 +306,7 @@ int lateResult(const std::string& address, const std::string& workerToken,
     auto worker = v1::WorkerService::NewStub(channel);
     auto client = v1::ClientService::NewStub(channel);
     v1::RegisterRequest registration;
-    registration.set_version(ALPHORN_VERSION);
-    registration.set_platform(renderPlatform());
+    farm::describeThisBuild(registration);
     registration.set_name("late-probe");
     v1::RegisterResponse registered;
     expect(worker->Register(contextWith(workerToken).get(), registration, &registered).ok(),

@@ -7,7 +7,8 @@
 //
 //   ALPHORN_IO_FAULT_DIR     the directory whose files fail (an absolute path)
 //   ALPHORN_IO_FAULT_SWITCH  a file: while it exists, every call that would change a file under
-//                            the directory fails; its first word, EROFS or EIO (the default),
+//                            the directory fails; its first word, EROFS, ENOSPC (a full disk)
+//                            or EIO (the default),
 //                            is the error
 //
 // Calls that only read keep working, as they do on a read-only file system. Files opened before
@@ -48,7 +49,9 @@ static int activeError() {
     static const auto realRead = reinterpret_cast<ReadFunction>(dlsym(RTLD_NEXT, "read"));
     const ssize_t length = realRead(fd, word, sizeof word - 1);
     close(fd);
-    return length >= 5 && strncmp(word, "EROFS", 5) == 0 ? EROFS : EIO;
+    if (length >= 5 && strncmp(word, "EROFS", 5) == 0) return EROFS;
+    if (length >= 6 && strncmp(word, "ENOSPC", 6) == 0) return ENOSPC;
+    return EIO;
 }
 
 static int underDirectory(const char* path) {

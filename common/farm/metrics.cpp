@@ -161,6 +161,9 @@ struct WorkerFamilies {
                                     "Time from a result's first delivery attempt until the "
                                     "coordinator answered (retries through outages included)",
                                     secondsBuckets());
+    Counter& blobsCorrupt = counter(*registry, "alphorn_worker_blobs_corrupt_total",
+                                    "Cached blobs whose content no longer matched their hash "
+                                    "(damaged on this worker's disk; discarded and fetched again)");
 
     WorkerFamilies() { addBuildInfo(*registry); }
 };
@@ -290,6 +293,10 @@ void WorkerMetrics::resultDelivered(Delivery outcome, double seconds) {
             return;  // never answered: no delivery time
     }
     f.delivery.Observe(seconds);
+}
+
+void WorkerMetrics::blobCorrupt() {
+    workerFamilies().blobsCorrupt.Increment();
 }
 
 // ---- serving -----------------------------------------------------------------------------------

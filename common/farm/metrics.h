@@ -91,6 +91,8 @@ struct WorkerMetrics {
     enum class Delivery { Merged, Discarded, Recorded, Held, Refused, Abandoned };
     // A result left the worker's hands, `seconds` after its first delivery attempt.
     static void resultDelivered(Delivery outcome, double seconds);
+    // A cached blob's content no longer matched its hash; it was discarded and fetched again.
+    static void blobCorrupt();
 };
 
 // Serves the exposition text of `collectables` (in order) on GET /metrics of `server`, to whom

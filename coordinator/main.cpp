@@ -17,7 +17,6 @@
 #include <sys/resource.h>
 
 #include <csignal>
-#include <iostream>
 
 using namespace alphorn;
 using namespace alphorn::coordinator;
@@ -121,6 +120,8 @@ int main(int argc, char** argv) {
         return app.exit(e) == 0 ? 0 : 1;
     }
     options.keepFinishedSeconds = keepFinishedHours * 3600;
+    // From here on stderr is the log: one event per line, whoever writes.
+    farm::routeLibraryOutputToLog();
 
     // A file size limit (ulimit -f) must fail the write that exceeds it, like a full disk, not
     // kill the coordinator.
@@ -220,7 +221,7 @@ int main(int argc, char** argv) {
         // it again), but whoever stopped the coordinator must hear that the state disk failed.
         return coordinator.jobsUnsavedAtStop() > 0 ? 1 : 0;
     } catch (const std::exception& e) {
-        std::cerr << "alphorn-coordinator: error: " << e.what() << "\n";
+        logError("coordinator.failed", {field("error", e.what())});
         return 1;
     }
 }

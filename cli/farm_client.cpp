@@ -66,7 +66,8 @@ void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options) {
                     "up: at the start, and after a call the coordinator broke by going away, "
                     "which is then asked again (submit with its submission id, also when a "
                     "call outlasts its time limit, and never creates a second job; retry and "
-                    "delete with their request id, and never act twice)")
+                    "delete with their request id, and never act twice). 0: give up at the first "
+                    "failure (a reachable coordinator is still connected to)")
         ->capture_default_str()
         ->check(kFinite & CLI::Range(0.0, 86400.0));
     sub->add_flag("--json", options.json, "Machine-readable JSON on stdout");
@@ -75,6 +76,11 @@ void addConnectionOptions(CLI::App* sub, FarmConnectionOptions& options) {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// How long a client's first connection attempt may take, whatever --reconnect-seconds says
+// (gRPC abandons an attempt after 20 s; a healthy coordinator answers in milliseconds, a busy
+// one in a few seconds).
+constexpr double kFirstConnectionSeconds = 10.0;
 
 std::chrono::system_clock::time_point toSystemClock(Clock::time_point when) {
     return std::chrono::system_clock::now() +
@@ -195,14 +201,24 @@ FarmClient::FarmClient(const FarmConnectionOptions& options) {
     m_stub = v1::ClientService::NewStub(m_channel);
     waitForCoordinator(Clock::now() + std::chrono::duration_cast<Clock::duration>(
                                           std::chrono::duration<double>(m_reconnectSeconds)),
-                       true);
+                       true, true);
 }
 
-void FarmClient::waitForCoordinator(Clock::time_point deadline, bool announce) {
+void FarmClient::waitForCoordinator(Clock::time_point deadline, bool announce,
+                                    bool firstConnection) {
     const auto start = Clock::now();
+    // --reconnect-seconds bounds the wait for a coordinator that cannot be reached, not the
+    // connecting to one that can: a client's first connection may take kFirstConnectionSeconds
+    // until an attempt has failed, however little the option allows, so that 0 (no waiting
+    // after a failure) still reaches a healthy coordinator.
+    const Clock::time_point firstAttemptDeadline =
+        start + std::chrono::duration_cast<Clock::duration>(
+                    std::chrono::duration<double>(kFirstConnectionSeconds));
+    bool attemptFailed = !firstConnection;
     bool probed = false, announced = !announce;
     grpc_connectivity_state state = m_channel->GetState(true);
     while (state != GRPC_CHANNEL_READY) {
+        if (state == GRPC_CHANNEL_TRANSIENT_FAILURE) attemptFailed = true;
         if (state == GRPC_CHANNEL_TRANSIENT_FAILURE && !probed) {
             // A coordinator speaking the other protocol closes every attempt; waiting for it
             // would never help, so say so at once.
@@ -211,15 +227,17 @@ void FarmClient::waitForCoordinator(Clock::time_point deadline, bool announce) {
                 farm::protocolMismatchHint(m_address, m_tls, "--tls-ca (or ALPHORN_TLS_CA)");
             if (!hint.empty()) fail("%s", hint);
         }
+        const Clock::time_point giveUpAt =
+            attemptFailed ? deadline : std::max(deadline, firstAttemptDeadline);
         if (!announced && secondsSince(start) >= 2.0) {
             announced = true;
             note(absl::StrFormat("waiting for the coordinator at %s (giving up after %.0f s)",
                                  m_address, std::max(0.0, m_reconnectSeconds)));
         }
         // Waiting here is also what moves the connection attempt forward (see makeContext).
-        const auto step = std::min(deadline, Clock::now() + std::chrono::seconds(1));
+        const auto step = std::min(giveUpAt, Clock::now() + std::chrono::seconds(1));
         if (!m_channel->WaitForStateChange(state, toSystemClock(step)) &&
-            Clock::now() >= deadline) {
+            Clock::now() >= giveUpAt) {
             const double waited = secondsSince(start);
             const bool refused =
                 farm::probeWireProtocol(m_address, std::chrono::milliseconds(1000)) ==
@@ -243,7 +261,7 @@ Clock::time_point FarmClient::reconnectDeadline(Clock::time_point lostAt) const 
 void FarmClient::awaitCoordinatorBack(Clock::time_point lostAt, bool pause) {
     // A coordinator that is stopping may still look connected for a moment; do not spin.
     if (pause) std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    waitForCoordinator(reconnectDeadline(lostAt), false);
+    waitForCoordinator(reconnectDeadline(lostAt), false, false);
 }
 
 grpc::Status FarmClient::callRetrying(const std::string& what,
@@ -264,6 +282,8 @@ grpc::Status FarmClient::callRetrying(const std::string& what,
                                                 what, secondsSince(*lostAt)));
             return status;
         }
+        // --reconnect-seconds 0: no second attempt, and no note promising one.
+        if (m_reconnectSeconds <= 0) return status;
         const bool first = !wentAway && !deadlinePassed;
         if (!deadlinePassed) wentAway = true;
         if (!lostAt) lostAt = Clock::now();

@@ -32,7 +32,8 @@ struct FarmConnectionOptions {
     std::string tlsCa;        // default: $ALPHORN_TLS_CA; nonempty means TLS
     bool json = false;
     // How long a client waits for an unreachable coordinator (at the start, or after losing it
-    // in a call it asks again, or while watching a job) before it gives up.
+    // in a call it asks again, or while watching a job) before it gives up. 0: no waiting and
+    // no second attempt after a failure; a reachable coordinator is still connected to.
     double reconnectSeconds = 60.0;
 };
 
@@ -89,8 +90,10 @@ class FarmClient {
 
   private:
     // Blocks until the channel is connected; throws Error as the constructor says. With
-    // `announce`, says on stderr that it waits when that takes more than two seconds.
-    void waitForCoordinator(std::chrono::steady_clock::time_point deadline, bool announce);
+    // `announce`, says on stderr that it waits when that takes more than two seconds. The
+    // `firstConnection` (the constructor's) has its first attempt's time even past `deadline`.
+    void waitForCoordinator(std::chrono::steady_clock::time_point deadline, bool announce,
+                            bool firstConnection);
     // When a client that lost the coordinator at `lostAt` gives up: --reconnect-seconds later.
     std::chrono::steady_clock::time_point reconnectDeadline(
         std::chrono::steady_clock::time_point lostAt) const;

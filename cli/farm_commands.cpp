@@ -8,13 +8,16 @@
 #include "common/core/image.h"
 #include "common/farm/convert.h"
 #include "common/farm/rpc.h"
+#include "common/farm/utf8_text.h"
 
 #include <absl/strings/numbers.h>
 #include <absl/strings/str_format.h>
 
+#include <algorithm>
 #include <ctime>
 #include <iostream>
 #include <thread>
+#include <vector>
 
 namespace alphorn::cli {
 
@@ -61,13 +64,67 @@ std::string jobStateText(const v1::JobStatus& s) {
     return s.paused() ? "paused" : farm::jobStateName(s.state());
 }
 
+// A column of a table printed for people: its header, the spaces before it, its least width,
+// the most a text column may grow to (0: no limit) and whether it is aligned to the right.
+struct Column {
+    const char* header;
+    const char* gap;
+    size_t minWidth;
+    size_t maxWidth = 0;
+    bool right = false;
+};
+
+// The widest a column of names (jobs, owners, workers) grows; longer names are cut with "…".
+constexpr size_t kMaxNameColumns = 40;
+
+// Prints the header and the rows. Widths are counted in the columns a terminal shows, not in
+// bytes, so that names in CJK, with emoji or with combining marks line up with the rest; a
+// column is as wide as its widest cell (within its bounds). The last column is not padded.
+void printTable(const std::vector<Column>& columns,
+                const std::vector<std::vector<std::string>>& rows) {
+    std::vector<size_t> widths;
+    for (size_t c = 0; c < columns.size(); ++c) {
+        size_t width = std::max(columns[c].minWidth, farm::displayWidth(columns[c].header));
+        for (const auto& row : rows) width = std::max(width, farm::displayWidth(row[c]));
+        if (columns[c].maxWidth > 0) width = std::min(width, columns[c].maxWidth);
+        widths.push_back(width);
+    }
+    const auto printRow = [&](const std::vector<std::string>& cells) {
+        std::string line;
+        for (size_t c = 0; c < columns.size(); ++c) {
+            if (c > 0) line += columns[c].gap;
+            if (c + 1 == columns.size()) {
+                line += cells[c];
+            } else if (columns[c].right) {
+                const size_t width = farm::displayWidth(cells[c]);
+                line += std::string(widths[c] - std::min(width, widths[c]), ' ') + cells[c];
+            } else {
+                line += farm::fitToColumns(cells[c], widths[c]);
+            }
+        }
+        std::cout << line << "\n";
+    };
+    std::vector<std::string> header;
+    for (const Column& column : columns) header.push_back(column.header);
+    printRow(header);
+    for (const auto& row : rows) printRow(row);
+}
+
 // The job table: a header row, then one row per job; the last column holds what only some jobs
 // have (photon radius, pass data duplication, error). `--json` prints the same fields (the
 // owner is settings.owner, the submit time submitted_at_unix_seconds).
 void printStatusTable(const std::vector<v1::JobStatus>& jobs) {
-    const char* format = "%-6s %-10s %-20s %-18s %-11s %9s  %13s  %13s  %4s  %s\n";
-    std::cout << absl::StrFormat(format, "JOB", "STATE", "NAME", "OWNER", "SUBMITTED", "SIZE",
-                                 "PASSES", "UNITS", "PRIO", "NOTES");
+    const std::vector<Column> columns = {{"JOB", "", 6},
+                                         {"STATE", " ", 10},
+                                         {"NAME", " ", 20, kMaxNameColumns},
+                                         {"OWNER", " ", 18, kMaxNameColumns},
+                                         {"SUBMITTED", " ", 11},
+                                         {"SIZE", " ", 9, 0, true},
+                                         {"PASSES", "  ", 13, 0, true},
+                                         {"UNITS", "  ", 13, 0, true},
+                                         {"PRIO", "  ", 4, 0, true},
+                                         {"NOTES", "  ", 0}};
+    std::vector<std::vector<std::string>> rows;
     for (const v1::JobStatus& s : jobs) {
         std::string notes =
             s.has_photon_radius() ? absl::StrFormat("photon radius %.4g", s.photon_radius()) : "";
@@ -78,16 +135,17 @@ void printStatusTable(const std::vector<v1::JobStatus>& jobs) {
               duplication(s), s.error().empty() ? "" : "error: " + s.error(),
               s.suspect().empty() ? "" : "SUSPECT: " + s.suspect()})
             if (!note.empty()) notes += (notes.empty() ? "" : "  ") + note;
-        std::cout << absl::StrFormat(
-            format, std::to_string(s.job_id()), jobStateText(s), s.settings().name(),
-            s.settings().owner().empty() ? "-" : s.settings().owner(),
-            s.submitted_at_unix_seconds() > 0 ? localTime(s.submitted_at_unix_seconds(), false)
-                                              : "-",
-            absl::StrFormat("%ux%u", s.width(), s.height()),
-            absl::StrFormat("%u/%u", s.passes_done(), s.settings().passes()),
-            absl::StrFormat("%u/%u", s.units_done(), s.units_total()),
-            std::to_string(s.settings().priority()), notes);
+        rows.push_back({std::to_string(s.job_id()), jobStateText(s), s.settings().name(),
+                        s.settings().owner().empty() ? "-" : s.settings().owner(),
+                        s.submitted_at_unix_seconds() > 0
+                            ? localTime(s.submitted_at_unix_seconds(), false)
+                            : "-",
+                        absl::StrFormat("%ux%u", s.width(), s.height()),
+                        absl::StrFormat("%u/%u", s.passes_done(), s.settings().passes()),
+                        absl::StrFormat("%u/%u", s.units_done(), s.units_total()),
+                        std::to_string(s.settings().priority()), notes});
     }
+    printTable(columns, rows);
 }
 
 void printStatusLine(const v1::JobStatus& s) {
@@ -119,20 +177,33 @@ std::string workerStateText(const v1::WorkerInfo& w) {
 }
 
 void printWorkerTable(const std::vector<v1::WorkerInfo>& workers) {
-    const char* format = "%-5s %-28s %5s %9s  %-8s %-16s %-15s %6s %13s  %-30s %s\n";
-    std::cout << absl::StrFormat(format, "ID", "NAME", "CORES", "MEMORY", "VERSION", "ENGINE",
-                                 "STATE", "LEASES", "UNITS MERGED", "SPEED", "LAST SEEN");
-    for (const auto& w : workers) {
-        std::cout << absl::StrFormat(
-            format, std::to_string(w.worker_id()), w.name(), std::to_string(w.cores()),
-            absl::StrFormat("%.1f GiB", w.memory_bytes() / double(1 << 30)), w.version(),
-            w.engine_fingerprint().empty() ? "-" : w.engine_fingerprint(),
-            w.quarantined().empty() ? workerStateText(w) : "quarantined",
-            std::to_string(w.leases()), std::to_string(w.units_merged()),
-            w.units_merged() > 0 ? speedText(w.samples_per_second(), w.rays_per_second()) : "-",
-            absl::StrFormat("%.1f s ago", w.seconds_since_seen()));
-        if (!w.quarantined().empty()) std::cout << "      quarantined: " << w.quarantined() << "\n";
-    }
+    const std::vector<Column> columns = {{"ID", "", 5},
+                                         {"NAME", " ", 28, kMaxNameColumns},
+                                         {"CORES", " ", 5, 0, true},
+                                         {"MEMORY", " ", 9, 0, true},
+                                         {"VERSION", "  ", 8},
+                                         {"ENGINE", " ", 16},
+                                         {"STATE", " ", 15},
+                                         {"LEASES", " ", 6, 0, true},
+                                         {"UNITS MERGED", " ", 13, 0, true},
+                                         {"SPEED", "  ", 30},
+                                         {"LAST SEEN", " ", 0}};
+    std::vector<std::vector<std::string>> rows;
+    for (const auto& w : workers)
+        rows.push_back(
+            {std::to_string(w.worker_id()), w.name(), std::to_string(w.cores()),
+             absl::StrFormat("%.1f GiB", w.memory_bytes() / double(1 << 30)), w.version(),
+             w.engine_fingerprint().empty() ? "-" : w.engine_fingerprint(),
+             w.quarantined().empty() ? workerStateText(w) : "quarantined",
+             std::to_string(w.leases()), std::to_string(w.units_merged()),
+             w.units_merged() > 0 ? speedText(w.samples_per_second(), w.rays_per_second()) : "-",
+             absl::StrFormat("%.1f s ago", w.seconds_since_seen())});
+    printTable(columns, rows);
+    // Why each quarantined worker is: a sentence, too long for a column.
+    for (const auto& w : workers)
+        if (!w.quarantined().empty())
+            std::cout << "worker " << w.worker_id() << " quarantined: " << w.quarantined() << "
+";
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include "common/farm/rpc.h"
 #include "coordinator/dashboard_assets.h"
 #include "coordinator/log.h"
+#include "coordinator/services.h"
 #include "coordinator/state_db.h"
 
 #include <absl/strings/ascii.h>
@@ -233,7 +234,8 @@ void Dashboard::route(farm::HttpServer& server, const std::string& path, RouteKi
             if (status >= 500)
                 logWarning("dashboard.error",
                            {field("path", request.path), field("error", e.what())});
-            plainText(response, status, e.what());
+            plainText(response, status,
+                      relativeToStateDirectory(e.what(), m_coordinator.options().stateDirectory));
         }
     };
     // Open at the server's level: `guarded` decides, by bearer token or session cookie, which

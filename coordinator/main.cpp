@@ -19,7 +19,6 @@
 #include <sys/resource.h>
 
 #include <csignal>
-#include <iostream>
 
 using namespace alphorn;
 using namespace alphorn::coordinator;
@@ -132,6 +131,8 @@ int main(int argc, char** argv) {
         return app.exit(e) == 0 ? 0 : 1;
     }
     options.keepFinishedSeconds = keepFinishedHours * 3600;
+    // From here on stderr is the log: one event per line, whoever writes.
+    farm::routeLibraryOutputToLog();
 
     // A file size limit (ulimit -f) must fail the write that exceeds it, like a full disk, not
     // kill the coordinator.
@@ -238,7 +239,7 @@ int main(int argc, char** argv) {
             coordinator.jobsUnsavedAtStop(), coordinator.unitsUnsavedAtStop());
         return 1;
     } catch (const std::exception& e) {
-        std::cerr << "alphorn-coordinator: error: " << e.what() << "\n";
+        logError("coordinator.failed", {field("error", e.what())});
         return 1;
     }
 }

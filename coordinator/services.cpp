@@ -9,11 +9,13 @@
 #include "common/farm/sha256.h"
 #include "coordinator/log.h"
 
+#include <absl/strings/ascii.h>
 #include <absl/strings/str_split.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <mutex>
 #include <set>
@@ -21,6 +23,58 @@
 #include <vector>
 
 namespace alphorn::coordinator {
+
+namespace fs = std::filesystem;
+
+std::string relativeToStateDirectory(const std::string& message,
+                                     const std::string& stateDirectory) {
+    // The directory as given and as resolved, without trailing slashes, longest first: a
+    // message may name it either way (SQLite names the file it was opened with, the file
+    // system's errors the path they were handed).
+    std::vector<std::string> spellings;
+    const auto addSpelling = [&](std::string spelling) {
+        while (spelling.size() > 1 && spelling.back() == '/') spelling.pop_back();
+        if (spelling.empty() || spelling == "/" || spelling == ".") return;
+        if (std::find(spellings.begin(), spellings.end(), spelling) == spellings.end())
+            spellings.push_back(spelling);
+    };
+    addSpelling(stateDirectory);
+    std::error_code error;
+    addSpelling(fs::absolute(stateDirectory, error).lexically_normal().string());
+    addSpelling(fs::weakly_canonical(stateDirectory, error).string());
+    std::sort(spellings.begin(), spellings.end(),
+              [](const std::string& a, const std::string& b) { return a.size() > b.size(); });
+    // A spelling counts where it starts a path: at the start of the message or after a
+    // character that cannot be part of one (so "/x/state" is left alone). Followed by '/' and
+    // a name, it goes with its slashes; an absolute spelling that ends a path names the
+    // directory itself. A relative spelling alone is left, since it may be a word ("its state").
+    const auto pathCharacter = [](char c) {
+        return absl::ascii_isalnum(static_cast<unsigned char>(c)) || c == '/' || c == '.' ||
+               c == '_' || c == '-' || c == '~';
+    };
+    std::string out;
+    for (size_t i = 0; i < message.size();) {
+        bool replaced = false;
+        if (i == 0 || !pathCharacter(message[i - 1])) {
+            for (const std::string& spelling : spellings) {
+                if (message.compare(i, spelling.size(), spelling) != 0) continue;
+                size_t end = i + spelling.size();
+                while (end < message.size() && message[end] == '/') ++end;
+                const bool endsPath = end == message.size() || !pathCharacter(message[end]);
+                if (!endsPath && end == i + spelling.size()) continue;  // "/x/state2"
+                if (endsPath) {
+                    if (spelling.front() != '/') continue;
+                    out += "the state directory";
+                }
+                i = end;
+                replaced = true;
+                break;
+            }
+        }
+        if (!replaced) out += message[i++];
+    }
+    return out;
+}
 
 namespace {
 
@@ -101,22 +155,33 @@ void delayRpcAnswerIfTestHookSet(grpc::ServerContext& context, const char* rpc) 
     waitUnlessCancelled(context, delay);
 }
 
+// A status as the caller sees it: the coordinator's own paths are none of a client's or
+// worker's business, so every name under the state directory is given relative to it
+// ("state.sqlite", "jobs/7/checkpoint") and the directory itself as "the state directory". The
+// coordinator's log keeps the full paths.
+grpc::Status withoutStatePaths(const grpc::Status& status, const std::string& stateDirectory) {
+    if (status.ok()) return status;
+    return {status.error_code(), relativeToStateDirectory(status.error_message(), stateDirectory),
+            status.error_details()};
+}
+
 // Runs `body` after the token check, turning exceptions into statuses.
 template <typename Body>
-grpc::Status guarded(grpc::ServerContext* context, const std::string& token, const char* rpc,
-                     Body&& body) {
+grpc::Status guarded(grpc::ServerContext* context, const Coordinator& coordinator,
+                     const std::string& token, const char* rpc, Body&& body) {
     grpc::Status auth = farm::checkBearer(*context, token);
     if (!auth.ok()) {
         logWarning("rpc.refused", {field("rpc", rpc), field("peer", context->peer()),
                                    field("reason", auth.error_message())});
         return auth;
     }
+    const std::string& stateDirectory = coordinator.options().stateDirectory;
     try {
         grpc::Status status = body();
         if (status.ok()) delayRpcAnswerIfTestHookSet(*context, rpc);
-        return status;
+        return withoutStatePaths(status, stateDirectory);
     } catch (const std::exception& e) {
-        return toStatus(e);
+        return withoutStatePaths(toStatus(e), stateDirectory);
     }
 }
 
@@ -141,7 +206,7 @@ bool streamBytes(grpc::ServerWriter<Chunk>* writer, const std::string& bytes,
 grpc::Status ClientServiceImpl::HasBlobs(grpc::ServerContext* context,
                                          const v1::HasBlobsRequest* request,
                                          v1::HasBlobsResponse* response) {
-    return guarded(context, m_token, "HasBlobs", [&] {
+    return guarded(context, m_coordinator, m_token, "HasBlobs", [&] {
         std::vector<std::string> present;
         for (const std::string& sha : request->sha256())
             if (m_coordinator.blobs().has(sha))
@@ -157,7 +222,7 @@ grpc::Status ClientServiceImpl::HasBlobs(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::PutBlobs(grpc::ServerContext* context,
                                          grpc::ServerReader<v1::BlobChunk>* reader,
                                          v1::PutBlobsResponse* response) {
-    return guarded(context, m_token, "PutBlobs", [&] {
+    return guarded(context, m_coordinator, m_token, "PutBlobs", [&] {
         std::unique_ptr<BlobStore::Upload> upload;
         std::string current;
         v1::BlobChunk chunk;
@@ -206,7 +271,7 @@ grpc::Status ClientServiceImpl::PutBlobs(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::SubmitJob(grpc::ServerContext* context,
                                           const v1::SubmitJobRequest* request,
                                           v1::SubmitJobResponse* response) {
-    return guarded(context, m_token, "SubmitJob", [&] {
+    return guarded(context, m_coordinator, m_token, "SubmitJob", [&] {
         try {
             *response->mutable_status() =
                 m_coordinator.submit(*request, [context] { return context->IsCancelled(); });
@@ -231,7 +296,7 @@ grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context,
     constexpr auto kKeepAlive = std::chrono::seconds(2);
     constexpr auto kGather = std::chrono::milliseconds(200);
     constexpr auto kCancelCheck = std::chrono::milliseconds(100);
-    return guarded(context, m_token, "WatchJob", [&] {
+    return guarded(context, m_coordinator, m_token, "WatchJob", [&] {
         if (request->job_id() == 0)
             return grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
                                 "WatchJob needs a job id (job ids start at 1)");
@@ -285,7 +350,7 @@ grpc::Status ClientServiceImpl::WatchJob(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::GetImage(grpc::ServerContext* context,
                                          const v1::GetImageRequest* request,
                                          grpc::ServerWriter<v1::ImageChunk>* writer) {
-    return guarded(context, m_token, "GetImage", [&] {
+    return guarded(context, m_coordinator, m_token, "GetImage", [&] {
         // An unknown format would otherwise be served as an EXR and an absurd exposure as a
         // black or white PNG: a client's mistake must be told, not answered with an image.
         if (!v1::ImageFormat_IsValid(request->format()))
@@ -333,7 +398,7 @@ grpc::Status ClientServiceImpl::GetImage(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::CancelJob(grpc::ServerContext* context,
                                           const v1::CancelJobRequest* request,
                                           v1::CancelJobResponse* response) {
-    return guarded(context, m_token, "CancelJob", [&] {
+    return guarded(context, m_coordinator, m_token, "CancelJob", [&] {
         *response->mutable_status() = m_coordinator.cancel(request->job_id());
         return grpc::Status::OK;
     });
@@ -342,7 +407,7 @@ grpc::Status ClientServiceImpl::CancelJob(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::ListJobs(grpc::ServerContext* context,
                                          const v1::ListJobsRequest* request,
                                          v1::ListJobsResponse* response) {
-    return guarded(context, m_token, "ListJobs", [&] {
+    return guarded(context, m_coordinator, m_token, "ListJobs", [&] {
         for (auto& status : m_coordinator.listJobs(request->job_id()))
             *response->add_jobs() = std::move(status);
         return grpc::Status::OK;
@@ -352,7 +417,7 @@ grpc::Status ClientServiceImpl::ListJobs(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context,
                                             const v1::ListWorkersRequest* request,
                                             v1::ListWorkersResponse* response) {
-    return guarded(context, m_token, "ListWorkers", [&] {
+    return guarded(context, m_coordinator, m_token, "ListWorkers", [&] {
         for (auto& worker : m_coordinator.listWorkers(request->include_dead()))
             *response->add_workers() = std::move(worker);
         return grpc::Status::OK;
@@ -362,7 +427,7 @@ grpc::Status ClientServiceImpl::ListWorkers(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::RetryJob(grpc::ServerContext* context,
                                          const v1::RetryJobRequest* request,
                                          v1::JobControlResponse* response) {
-    return guarded(context, m_token, "RetryJob", [&] {
+    return guarded(context, m_coordinator, m_token, "RetryJob", [&] {
         *response->mutable_status() = m_coordinator.retry(request->job_id(), request->request_id());
         return grpc::Status::OK;
     });
@@ -371,7 +436,7 @@ grpc::Status ClientServiceImpl::RetryJob(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::SetJobPaused(grpc::ServerContext* context,
                                              const v1::SetJobPausedRequest* request,
                                              v1::JobControlResponse* response) {
-    return guarded(context, m_token, "SetJobPaused", [&] {
+    return guarded(context, m_coordinator, m_token, "SetJobPaused", [&] {
         *response->mutable_status() = m_coordinator.setPaused(request->job_id(), request->paused());
         return grpc::Status::OK;
     });
@@ -380,7 +445,7 @@ grpc::Status ClientServiceImpl::SetJobPaused(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::SetJobPriority(grpc::ServerContext* context,
                                                const v1::SetJobPriorityRequest* request,
                                                v1::JobControlResponse* response) {
-    return guarded(context, m_token, "SetJobPriority", [&] {
+    return guarded(context, m_coordinator, m_token, "SetJobPriority", [&] {
         *response->mutable_status() =
             m_coordinator.setPriority(request->job_id(), request->priority());
         return grpc::Status::OK;
@@ -390,7 +455,7 @@ grpc::Status ClientServiceImpl::SetJobPriority(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::DeleteJob(grpc::ServerContext* context,
                                           const v1::DeleteJobRequest* request,
                                           v1::DeleteJobResponse* response) {
-    return guarded(context, m_token, "DeleteJob", [&] {
+    return guarded(context, m_coordinator, m_token, "DeleteJob", [&] {
         *response = m_coordinator.deleteJob(request->job_id(), request->cancel_running(),
                                             request->request_id());
         return grpc::Status::OK;
@@ -400,7 +465,7 @@ grpc::Status ClientServiceImpl::DeleteJob(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::GetJobLog(grpc::ServerContext* context,
                                           const v1::GetJobLogRequest* request,
                                           v1::GetJobLogResponse* response) {
-    return guarded(context, m_token, "GetJobLog", [&] {
+    return guarded(context, m_coordinator, m_token, "GetJobLog", [&] {
         *response = m_coordinator.jobLog(request->job_id(), request->after_sequence());
         return grpc::Status::OK;
     });
@@ -409,7 +474,7 @@ grpc::Status ClientServiceImpl::GetJobLog(grpc::ServerContext* context,
 grpc::Status ClientServiceImpl::SetWorkerDraining(grpc::ServerContext* context,
                                                   const v1::SetWorkerDrainingRequest* request,
                                                   v1::SetWorkerDrainingResponse* response) {
-    return guarded(context, m_token, "SetWorkerDraining", [&] {
+    return guarded(context, m_coordinator, m_token, "SetWorkerDraining", [&] {
         *response->mutable_worker() =
             m_coordinator.setWorkerDraining(request->worker_id(), request->draining());
         return grpc::Status::OK;
@@ -421,7 +486,7 @@ grpc::Status ClientServiceImpl::SetWorkerDraining(grpc::ServerContext* context,
 grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context,
                                          const v1::RegisterRequest* request,
                                          v1::RegisterResponse* response) {
-    return guarded(context, m_token, "Register", [&] {
+    return guarded(context, m_coordinator, m_token, "Register", [&] {
         response->set_worker_id(m_coordinator.registerWorker(*request));
         response->set_heartbeat_interval_seconds(m_coordinator.heartbeatIntervalSeconds());
         return grpc::Status::OK;
@@ -431,7 +496,7 @@ grpc::Status WorkerServiceImpl::Register(grpc::ServerContext* context,
 grpc::Status WorkerServiceImpl::AcquireWork(grpc::ServerContext* context,
                                             const v1::AcquireWorkRequest* request,
                                             v1::AcquireWorkResponse* response) {
-    return guarded(context, m_token, "AcquireWork", [&] {
+    return guarded(context, m_coordinator, m_token, "AcquireWork", [&] {
         const farm::Stopwatch call;
         // Long poll: wait up to 2 s for work, so idle workers neither spin nor lag behind a submit.
         auto until = std::chrono::steady_clock::now() + std::chrono::seconds(2);
@@ -449,7 +514,7 @@ grpc::Status WorkerServiceImpl::AcquireWork(grpc::ServerContext* context,
 grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext* context,
                                           const v1::HeartbeatRequest* request,
                                           v1::HeartbeatResponse* response) {
-    return guarded(context, m_token, "Heartbeat", [&] {
+    return guarded(context, m_coordinator, m_token, "Heartbeat", [&] {
         *response = m_coordinator.heartbeat(*request);
         if (response->unknown_worker()) response->set_error_reason(v1::ERROR_REASON_UNKNOWN_WORKER);
         return grpc::Status::OK;
@@ -459,7 +524,7 @@ grpc::Status WorkerServiceImpl::Heartbeat(grpc::ServerContext* context,
 grpc::Status WorkerServiceImpl::ReportResult(grpc::ServerContext* context,
                                              grpc::ServerReader<v1::ResultChunk>* reader,
                                              v1::ReportResultResponse* response) {
-    return guarded(context, m_token, "ReportResult", [&] {
+    return guarded(context, m_coordinator, m_token, "ReportResult", [&] {
         const farm::Stopwatch call;
         v1::ResultChunk header;
         if (!reader->Read(&header))
@@ -495,7 +560,7 @@ grpc::Status WorkerServiceImpl::ReportResult(grpc::ServerContext* context,
 grpc::Status WorkerServiceImpl::GetBlob(grpc::ServerContext* context,
                                         const v1::GetBlobRequest* request,
                                         grpc::ServerWriter<v1::GetBlobChunk>* writer) {
-    return guarded(context, m_token, "GetBlob", [&] {
+    return guarded(context, m_coordinator, m_token, "GetBlob", [&] {
         if (!m_coordinator.blobs().has(request->sha256()))
             return grpc::Status(
                 grpc::StatusCode::NOT_FOUND,

@@ -8,6 +8,12 @@
 
 namespace alphorn::coordinator {
 
+// `message` as a client or worker may see it: every path under `stateDirectory` (as given, as
+// an absolute path or resolved) made relative to it ("state.sqlite", "jobs/7/checkpoint"), and
+// the directory itself, absolute, named "the state directory". Every status the services return
+// passes through it; the coordinator's own log keeps the full paths.
+std::string relativeToStateDirectory(const std::string& message, const std::string& stateDirectory);
+
 class ClientServiceImpl final : public v1::ClientService::Service {
   public:
     ClientServiceImpl(Coordinator& coordinator, std::string token)

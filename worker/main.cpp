@@ -77,6 +77,8 @@ int main(int argc, char** argv) {
     options.cacheBytes = static_cast<uint64_t>(cacheGiB * double(uint64_t(1) << 30));
     options.unloadAfter =
         std::chrono::milliseconds(static_cast<int64_t>(std::llround(unloadAfterSeconds * 1000.0)));
+    // From here on stderr is the log: one event per line, whoever writes.
+    farm::routeLibraryOutputToLog();
 
     // A file size limit (ulimit -f) must fail the cache write that exceeds it, like a full disk,
     // not kill the worker.

@@ -1,6 +1,7 @@
 #include "common/farm/rpc.h"
 
 #include "common/core/error.h"
+#include "common/core/warning.h"
 #include "common/farm/files.h"
 
 #include <absl/strings/ascii.h>
@@ -18,7 +19,6 @@
 #include <unistd.h>
 
 #include <cerrno>
-#include <iostream>
 #include <mutex>
 #include <set>
 
@@ -27,7 +27,7 @@ namespace alphorn::farm {
 std::string tokenPermissionWarning(const std::string& path, unsigned mode) {
     if ((mode & (S_IRGRP | S_IROTH)) == 0) return "";
     return absl::StrFormat(
-        "warning: the token file %s is readable by %s (mode %04o): whoever can read it can use "
+        "the token file %s is readable by %s (mode %04o): whoever can read it can use "
         "the farm with this token; `chmod 600 %s` keeps it to its owner",
         path,
         (mode & S_IRGRP) && (mode & S_IROTH) ? "its group and others"
@@ -44,7 +44,7 @@ std::string readTokenFile(const std::string& path) {
         static std::mutex warnedMutex;
         static std::set<std::string> warned;
         std::lock_guard lock(warnedMutex);
-        if (!warning.empty() && warned.insert(path).second) std::cerr << warning << std::endl;
+        if (!warning.empty() && warned.insert(path).second) warn(warning);
     }
     std::string token(absl::StripAsciiWhitespace(text.substr(0, text.find('\n'))));
     if (token.size() < 16)

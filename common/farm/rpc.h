@@ -17,7 +17,8 @@ inline constexpr int kMaxMessageBytes = 8 << 20;
 
 // Reads a token file: the first line, surrounding whitespace removed. Throws Error when the
 // file is missing, empty or shorter than 16 characters (a guessable token is a configuration bug).
-// Warns on stderr, once per path, when the file is readable by its group or by others.
+// Warns (alphorn::warn(): on stderr, or in a daemon's log), once per path, when the file is
+// readable by its group or by others.
 std::string readTokenFile(const std::string& path);
 // The warning readTokenFile() prints for a file with these permission bits; empty when only the
 // owner can read it.

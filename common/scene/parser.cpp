@@ -2,6 +2,7 @@
 
 #include "common/core/decimal_number.h"
 #include "common/core/system_memory.h"
+#include "common/core/warning.h"
 #include "common/scene/mesh.h"
 #include "common/scene/scene.h"
 #include "common/scene/scene_load.h"
@@ -15,7 +16,6 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
-#include <iostream>
 #include <set>
 #include <sstream>
 
@@ -143,8 +143,7 @@ class Parser {
         out.root = parseObject(root);
         for (const auto& [parameter, value] : m_overrides.parameters)
             if (!m_usedParameters.count(parameter))
-                std::cerr << absl::StrFormat("warning: %s: -D %s=%s is not used: no $%s in it\n",
-                                             m_name, parameter, value, parameter);
+                warn("%s: -D %s=%s is not used: no $%s in it", m_name, parameter, value, parameter);
         out.dependencies = std::move(*m_dependencies);
         return out;
     }
@@ -561,8 +560,7 @@ class Parser {
             if (!intended.empty())
                 fail("%s: %s has no property \"%s\"; did you mean \"%s\"?", where, element, unused,
                      intended);
-            std::cerr << absl::StrFormat("warning: %s: property \"%s\" of %s is not used\n", where,
-                                         unused, element);
+            warn("%s: property \"%s\" of %s is not used", where, unused, element);
         }
         return object;
     }

@@ -1,10 +1,9 @@
 #include "common/scene/scene.h"
+#include "common/core/warning.h"
 #include "common/scene/media_traversal.h"
 #include "common/scene/scene_load.h"
 
 #include <absl/strings/str_format.h>
-
-#include <iostream>
 
 namespace alphorn {
 
@@ -55,9 +54,9 @@ void Scene::activate() {
     // Not an error (the normals and ao integrators need no light), but every other integrator
     // renders such a scene black, which a user should hear about before the render, not after.
     if (m_emitters.empty())
-        std::cerr << absl::StrFormat(
-            "warning: %s: the scene has no emitter; every integrator that transports light "
-            "renders it black\n",
+        warn(
+            "%s: the scene has no emitter; every integrator that transports light renders it "
+            "black",
             source());
     // Checking the scene needs its bounds (the integrators derive default radii from them), which
     // are those of its meshes; Embree's BVH, the largest part of loading a scene of many

@@ -2,7 +2,8 @@
 # What a client says when it cannot talk to the coordinator: a plaintext client to a TLS
 # coordinator and a TLS client to a plaintext one are told which option to change (at once, not
 # after the wait), and an address where nothing listens fails after --reconnect-seconds with a
-# clear message. `watch` shows the coordinator's elapsed time, not the time since it started.
+# clear message (at once with --reconnect-seconds 0, which still connects to a healthy
+# coordinator). `watch` shows the coordinator's elapsed time, not the time since it started.
 source "$(dirname "$0")/farm_lib.sh"
 chmod 600 "$WORK"/*.token
 
@@ -22,10 +23,28 @@ grep -q "cannot reach the coordinator at $plain_address: no connection within [0
     fail "unclear error without a coordinator: $(cat "$WORK/refused.log")"
 ((took >= 3 && took <= 10)) || fail "gave up after $took s instead of about 3"
 pass "no coordinator: $(tail -n 1 "$WORK/refused.log")"
+# --reconnect-seconds 0 gives up at the first failure, with the same message.
+started=$SECONDS
+"$ALPHORN" status --reconnect-seconds 0 2>"$WORK/refused0.log" && fail "status succeeded without a coordinator"
+grep -q "cannot reach the coordinator at $plain_address: no connection within 0 s (nothing accepts connections there" \
+    "$WORK/refused0.log" || fail "unclear error without a coordinator, --reconnect-seconds 0: $(cat "$WORK/refused0.log")"
+(((SECONDS - started) <= 3)) || fail "--reconnect-seconds 0 gave up after $((SECONDS - started)) s"
+pass "no coordinator, --reconnect-seconds 0: $(tail -n 1 "$WORK/refused0.log")"
 
 # A TLS client to a plaintext coordinator.
 rm -rf "$WORK/state"
 start_coordinator
+# --reconnect-seconds 0 means no second attempt after a failure, not no connection: a healthy
+# coordinator answers every command.
+"$ALPHORN" status --reconnect-seconds 0 >"$WORK/zero.txt" 2>&1 ||
+    fail "status --reconnect-seconds 0 failed against a healthy coordinator: $(cat "$WORK/zero.txt")"
+zero_job=$("$ALPHORN" submit "$SCENES/farm_normals.xml" --passes 1 --tile 48 --reconnect-seconds 0 2>"$WORK/zero.txt") ||
+    fail "submit --reconnect-seconds 0 failed against a healthy coordinator: $(cat "$WORK/zero.txt")"
+"$ALPHORN" priority "$zero_job" 2 --reconnect-seconds 0 >"$WORK/zero.txt" 2>&1 ||
+    fail "priority --reconnect-seconds 0 failed against a healthy coordinator: $(cat "$WORK/zero.txt")"
+"$ALPHORN" cancel "$zero_job" --reconnect-seconds 0 >"$WORK/zero.txt" 2>&1 ||
+    fail "cancel --reconnect-seconds 0 failed against a healthy coordinator: $(cat "$WORK/zero.txt")"
+pass "--reconnect-seconds 0 against a healthy coordinator: status, submit, priority and cancel answered"
 timeout 20 "$ALPHORN" status --tls-ca "$WORK/cert.pem" 2>"$WORK/tls_to_plain.log" &&
     fail "a TLS client was served by a plaintext coordinator"
 grep -q "speaks plaintext" "$WORK/tls_to_plain.log" && grep -q -- "--tls-ca" "$WORK/tls_to_plain.log" ||

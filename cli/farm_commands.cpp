@@ -202,8 +202,7 @@ void printWorkerTable(const std::vector<v1::WorkerInfo>& workers) {
     // Why each quarantined worker is: a sentence, too long for a column.
     for (const auto& w : workers)
         if (!w.quarantined().empty())
-            std::cout << "worker " << w.worker_id() << " quarantined: " << w.quarantined() << "
-";
+            std::cout << "worker " << w.worker_id() << " quarantined: " << w.quarantined() << "\n";
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include "common/scene/accel.h"
 #include "coordinator/admission.h"
 #include "coordinator/log.h"
+#include "coordinator/services.h"
 
 #include <absl/strings/str_replace.h>
 #include <openssl/rand.h>
@@ -420,11 +421,13 @@ v1::JobStatus Coordinator::statusLocked(const Job& job) const {
     status.set_job_id(job.id);
     *status.mutable_settings() = job.description.settings();
     status.set_state(job.state);
-    status.set_error(job.error);
+    status.set_error(job.error.find('/') == std::string::npos
+                         ? job.error
+                         : relativeToStateDirectory(job.error, m_options.stateDirectory));
     if (job.state == v1::JOB_STATE_RUNNING && !film.checkpointError().empty())
         status.set_error(absl::StrFormat(
             "cannot write the checkpoint (%s); retrying every %.3g s",
-            absl::StrReplaceAll(film.checkpointError(), {{m_options.stateDirectory + "/", ""}}),
+            relativeToStateDirectory(film.checkpointError(), m_options.stateDirectory),
             m_options.checkpointIntervalSeconds));
     status.set_width(job.grid.width());
     status.set_height(job.grid.height());
@@ -525,6 +528,9 @@ void Coordinator::changedLocked(Job& job) {
 
 void Coordinator::eventLocked(Job& job, v1::JobEventKind kind, std::string message,
                               uint64_t workerId, std::optional<uint32_t> unitIndex) {
+    // The log is read by clients: it names files in the state directory relative to it.
+    if (message.find('/') != std::string::npos)
+        message = relativeToStateDirectory(message, m_options.stateDirectory);
     job.events.add(m_clock->wallSeconds(), kind, std::move(message), workerId, unitIndex);
     changedLocked(job);
 }

@@ -124,6 +124,17 @@ TEST(Checkpoint, RoundTripAndCorruption) {
 
 class CoordinatorJob : public CoordinatorJobTest {
   protected:
+    // Makes a rendered result wrong, as a worker with a damaged scene file or a bad build
+    // would: one unit of fixed point more red in the block's first pixel.
+    static void perturbResult(v1::ResultChunk& header, std::string& compressed) {
+        FilmBlock block(header.block_x0(), header.block_y0(), header.block_width(),
+                        header.block_height(), PassHalves::Kept);
+        farm::decompressFilm(compressed, block);
+        block.at(block.x0(), block.y0()).rgb[0] += 1;
+        compressed = farm::compressFilm(block);
+        header.set_compressed_size(compressed.size());
+        header.set_compressed_sha256(farm::sha256Hex(compressed));
+    }
     // Leases every pending unit to `worker`, renders and reports it as a worker does, and
     // calls `afterMerge` with each lease once its result is merged.
     void renderAllUnits(
@@ -1604,15 +1615,7 @@ TEST_F(CoordinatorJob, AnAuditQuarantinesAWrongWorkerAndTheFilmStaysRight) {
             EXPECT_TRUE(lease.has_work());
             std::string compressed;
             v1::ResultChunk header = render(lease, worker, compressed);
-            if (perturb) {
-                FilmBlock block(header.block_x0(), header.block_y0(), header.block_width(),
-                                header.block_height(), PassHalves::Kept);
-                farm::decompressFilm(compressed, block);
-                block.at(block.x0(), block.y0()).rgb[0] += 1;
-                compressed = farm::compressFilm(block);
-                header.set_compressed_size(compressed.size());
-                header.set_compressed_sha256(farm::sha256Hex(compressed));
-            }
+            if (perturb) perturbResult(header, compressed);
             return std::make_pair(lease.unit().unit_index(),
                                   coordinator.report(header, compressed));
         };
@@ -1667,15 +1670,7 @@ TEST_F(CoordinatorJob, AWorkerFoundWrongLaterRestartsItsJobsOrMarksThemSuspect) 
         if (!lease.has_work()) return v1::RESULT_DISPOSITION_UNSPECIFIED;
         std::string compressed;
         v1::ResultChunk header = render(lease, worker, compressed);
-        if (perturb) {
-            FilmBlock block(header.block_x0(), header.block_y0(), header.block_width(),
-                            header.block_height(), PassHalves::Kept);
-            farm::decompressFilm(compressed, block);
-            block.at(block.x0(), block.y0()).rgb[1] += 7;
-            compressed = farm::compressFilm(block);
-            header.set_compressed_size(compressed.size());
-            header.set_compressed_sha256(farm::sha256Hex(compressed));
-        }
+        if (perturb) perturbResult(header, compressed);
         return coordinator.report(header, compressed);
     };
     // Job 1: A's first unit is audited by B and agrees; A's later units merge unaudited.

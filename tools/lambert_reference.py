@@ -9,13 +9,17 @@ methods independent of the renderer (pure Python, double precision):
           normal of the plane through the point and that edge. A diffuse floor of albedo rho then
           shows radiance rho * E / pi. The test camera has a 1x1 image and a 0.01 degree field
           of view, so it sees a patch of the floor about 1e-4 wide; the script bounds how much E
-          changes over that patch (printed as "footprint error").
+          changes over that patch (printed as "footprint error"). The quad's value is also the
+          reference of narrow_camera_ttest.xml and zero_area_light_ttest.xml, whose cameras
+          (fov 1e-6, 0.01 above the floor) see a far smaller patch.
   albedo  Directional albedo of Nori's microfacet BRDF (Beckmann D, Walter's rational Smith G1,
           dielectric Fresnel, Lambertian kd, ks = 1 - max(kd)): the expected BSDF sampling weight
           int f(wi, wo) cos(theta_o) dwo. The diffuse part is kd; the specular part is integrated
           over half vectors h (dwo = 4 (wo.h) dwh), where the Beckmann peak sits at the pole,
           with the exact boundary of the region wo.n > 0 found per azimuth so that the
-          adaptive Gauss-Kronrod quadrature only sees smooth integrands.
+          adaptive Gauss-Kronrod quadrature only sees smooth integrands. By reciprocity the same
+          numbers are the radiance a microfacet floor inside a box emitting radiance 1 shows at
+          that angle (narrow_camera_ttest.xml).
 
 Usage: python3 tools/lambert_reference.py [lights|albedo]   (default: both)
 """

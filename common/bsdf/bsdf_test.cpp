@@ -386,7 +386,44 @@ TEST(Microfacet, TexturedParametersMatchPlainValues) {
 
 TEST(Microfacet, RejectsKdAboveOneAndNonPositiveAlpha) {
     EXPECT_THROW(makeBSDF("microfacet", microfacetProps(0.1f, Color3f(1.2f, 0.1f, 0.1f))), Error);
-    EXPECT_THROW(makeBSDF("microfacet", microfacetProps(0.0f, Color3f(0.5f))), Error);
+    EXPECT_THROW(makeBSDF("microfacet", microfacetProps(-0.1f, Color3f(0.5f))), Error);
+    // The refusals say why: 0 is a delta, and an alpha whose square is no normal float loses
+    // the distribution's peak.
+    auto messageFor = [](float alpha) -> std::string {
+        try {
+            makeBSDF("microfacet", microfacetProps(alpha, Color3f(0.5f)));
+        } catch (const Error& e) {
+            return e.what();
+        }
+        return "";
+    };
+    EXPECT_NE(messageFor(0.0f).find("alpha 0 is a perfectly smooth surface"), std::string::npos)
+        << messageFor(0.0f);
+    EXPECT_NE(messageFor(1e-20f).find("alpha 1e-20 is too small to render in float precision"),
+              std::string::npos)
+        << messageFor(1e-20f);
+}
+
+// Roughness near 0 renders, down to where float ends: the sampled lobe is then a mirror
+// reflection weighted by the Fresnel reflectance, with finite weights at every angle (Nori
+// courses use alpha 1e-3; the t-test at alpha 1e-8 and 2e-19 gave exactly the mirror's F).
+TEST(Microfacet, RoughnessNearZeroRendersAsAFresnelMirror) {
+    for (float alpha : {1e-3f, 1e-8f, 2e-19f}) {
+        auto bsdf = makeBSDF("microfacet", microfacetProps(alpha, Color3f(0.0f)));
+        for (float deg : {0.0f, 30.0f, 60.0f, 75.0f, 85.0f}) {
+            Rng rng(29, 0, 0, StreamPurpose::Test);
+            stats::RunningStats albedo;
+            for (int i = 0; i < 5000; ++i) {
+                BSDFQueryRecord rec(directionAt(deg));
+                const Color3f w = bsdf->sample(rec, Point2f(rng.nextFloat(), rng.nextFloat()));
+                ASSERT_TRUE(w.allFinite()) << alpha << " " << deg;
+                albedo.add(w.r());
+            }
+            const double F = fresnelReference(degToRad(deg), 1.000277, 1.5046);
+            EXPECT_NEAR(albedo.mean, F, 0.01 * F + 5.0 * albedo.standardError())
+                << alpha << " " << deg;
+        }
+    }
 }
 
 }  // namespace

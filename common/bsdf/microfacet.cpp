@@ -16,7 +16,22 @@ class Microfacet : public BSDF {
     explicit Microfacet(const PropertyList& props)
         : m_alpha(props, "alpha", 0.1f), m_kd(props, "kd", Color3f(0.5f)) {
         // Validate the plain values here so errors name the XML line; textures in activate().
+        // Any positive roughness renders down to where float ends (tiny ones as a mirror-like
+        // lobe); 0 itself is a perfectly smooth surface, whose distribution is a delta.
+        const float alpha = props.getFloat("alpha", 0.1f);
+        if (alpha == 0.0f)
+            props.fail(
+                "alpha 0 is a perfectly smooth surface: the Beckmann distribution is then a "
+                "delta, which this BSDF cannot evaluate or sample; use a mirror or a dielectric, "
+                "or an alpha of at least %g",
+                kMinAlpha);
         props.getPositiveFloat("alpha", 0.1f);
+        if (alpha < kMinAlpha)
+            props.fail(
+                "alpha %g is too small to render in float precision: alpha^2 is below the "
+                "smallest normal float, where the Beckmann distribution's peak 1 / (pi alpha^2) "
+                "is lost (at least %g)",
+                alpha, kMinAlpha);
         const Color3f kd = props.getNonNegativeColor("kd", Color3f(0.5f));
         if (kd.maxCoeff() > 1.0f)
             props.fail(
@@ -37,8 +52,8 @@ class Microfacet : public BSDF {
     void activate() override {
         // Texture bounds are exact, so a texture that could leave the valid range is rejected
         // up front instead of being clamped while shading.
-        if (!(m_alpha.lowerBound() > 0.0f) || !std::isfinite(m_alpha.upperBound()))
-            fail("the alpha texture must stay positive and finite (bounds %g to %g)",
+        if (!(m_alpha.lowerBound() >= kMinAlpha) || !std::isfinite(m_alpha.upperBound()))
+            fail("the alpha texture must stay within [%g, inf) (bounds %g to %g)", kMinAlpha,
                  m_alpha.lowerBound(), m_alpha.upperBound());
         if (m_kd.lowerBound().minCoeff() < 0.0f || m_kd.upperBound().maxCoeff() > 1.0f)
             fail("the kd texture must stay within [0, 1] (bounds %s to %s)",
@@ -125,6 +140,11 @@ class Microfacet : public BSDF {
         return (3.535f * b + 2.181f * b2) / (1.0f + 2.276f * b + 2.577f * b2);
     }
 
+    // The smallest roughness whose square is a normal float (sqrt(FLT_MIN)). Below it alpha^2
+    // loses its precision and D = exp(-tan^2 / alpha^2) / (pi alpha^2 cos^3) turns NaN or 0
+    // (alpha 5e-20 gave NaN at 80 degrees, 3e-20 a black surface). Above it, down to 1e-8 and
+    // beyond, BSDF sampling renders the lobe as a mirror weighted by Fresnel, as it should.
+    static constexpr float kMinAlpha = 1.0842022e-19f;
     TexturedFloat m_alpha;
     TexturedColor m_kd;
     float m_intIOR, m_extIOR;

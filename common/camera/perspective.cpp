@@ -10,19 +10,12 @@ class PerspectiveCamera : public Camera {
   public:
     explicit PerspectiveCamera(const PropertyList& props) : m_projection(props, m_outputSize) {}
 
-    void activate() override {
-        Camera::activate();
-        m_projection.activate();
-    }
-
     Color3f sampleRay(Ray3f& ray, const Point2f& samplePosition, const Point2f&) const override {
         m_projection.makeRay(ray, Point3f::Zero(), m_projection.direction(samplePosition));
         return Color3f(1.0f);
     }
 
-    std::string lightTracingRefusal() const override {
-        return m_projection.isRigid() ? "" : "the camera's toWorld scales or shears";
-    }
+    std::string lightTracingRefusal() const override { return m_projection.lightTracingRefusal(); }
     std::optional<CameraProjection> project(const Point3f& world) const override {
         return m_projection.project(world);
     }

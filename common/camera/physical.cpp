@@ -23,11 +23,6 @@ class PhysicalCamera : public Camera {
             props.fail("apertureRadius and focalDistance must be at most 1e15");
     }
 
-    void activate() override {
-        Camera::activate();
-        m_projection.activate();
-    }
-
     Color3f sampleRay(Ray3f& ray, const Point2f& samplePosition,
                       const Point2f& apertureSample) const override {
         const Vector3f d = m_projection.direction(samplePosition);
@@ -50,7 +45,7 @@ class PhysicalCamera : public Camera {
             return "light tracing supports the physical camera only as a pinhole (apertureRadius "
                    "0), got apertureRadius " +
                    std::to_string(m_apertureRadius);
-        return m_projection.isRigid() ? "" : "the camera's toWorld scales or shears";
+        return m_projection.lightTracingRefusal();
     }
     std::optional<CameraProjection> project(const Point3f& world) const override {
         return m_projection.project(world);

@@ -7,7 +7,10 @@
 #include "common/camera/camera.h"
 #include "common/core/properties.h"
 
+#include <absl/strings/str_format.h>
+
 #include <optional>
+#include <string>
 
 namespace alphorn {
 
@@ -24,10 +27,10 @@ class PinholeProjection {
                        outputSize.y());
         m_cameraToWorld = props.getTransform("toWorld", Transform());
         m_fov = props.getFloat("fov", 30.0f);
-        // Below a thousandth of a degree the image plane's float arithmetic breaks down (the
-        // camera's rays become NaN).
-        if (!(m_fov >= 1e-3f && m_fov < 180.0f))
-            props.fail("fov must be in [0.001, 180) degrees, got %g", m_fov);
+        // Any angle strictly between 0 and 180 degrees is a field of view (NaN and inf are
+        // not); how narrow float precision lets it be is checked below, on the mapping itself.
+        if (!(m_fov > 0.0f && m_fov < 180.0f))
+            props.fail("fov must be in (0, 180) degrees, got %g", m_fov);
         m_nearClip = props.getPositiveFloat("nearClip", 1e-4f);
         m_farClip = props.getPositiveFloat("farClip", 1e4f);
         if (!(m_farClip > m_nearClip)) props.fail("farClip must be greater than nearClip");
@@ -43,26 +46,30 @@ class PinholeProjection {
                 "nearClip * farClip (%g * %g) exceeds the float range; give a smaller farClip",
                 m_nearClip, m_farClip);
         m_outputSize = outputSize;
+        precompute();
+        // A narrow fov is a telephoto lens, and Nori's test files use fov 1e-6 to send every
+        // sample along the view axis. The mapping holds cot = 1 / tan(fov / 2): below about
+        // 3.4e-37 degrees it exceeds the float range and every ray would be NaN.
+        if (!mapsToRays())
+            props.fail(
+                "fov %g degrees is too narrow to render in float precision: the image-to-ray "
+                "mapping holds 1 / tan(fov / 2) = %g, beyond the float range (the narrowest fov "
+                "that renders is about 3.4e-37 degrees)",
+                m_fov, 1.0 / std::tan(double(degToRad(m_fov / 2.0f))));
     }
 
-    // Precomputes the image-to-camera mapping (Nori's).
-    void activate() {
-        const float aspect = m_outputSize.x() / static_cast<float>(m_outputSize.y());
-        const float recip = 1.0f / (m_farClip - m_nearClip);
-        const float cot = 1.0f / std::tan(degToRad(m_fov / 2.0f));
-        Matrix4f perspective;
-        perspective << cot, 0, 0, 0, 0, cot, 0, 0, 0, 0, m_farClip * recip,
-            -m_nearClip * m_farClip * recip, 0, 0, 1, 0;
-        // Maps [0,1]^2 image coordinates to the near plane in camera space.
-        Eigen::Affine3f toSample =
-            Eigen::DiagonalMatrix<float, 3>(Vector3f(-0.5f, -0.5f * aspect, 1.0f)) *
-            Eigen::Translation3f(-1.0f, -1.0f / aspect, 0.0f);
-        m_sampleToCamera = Transform(toSample.matrix() * perspective).inverse();
-        m_invOutputSize = Vector2f(1.0f / m_outputSize.x(), 1.0f / m_outputSize.y());
-        m_worldToCamera = m_cameraToWorld.inverse();
-        m_cot = cot;
-        m_aspect = aspect;
-        m_rasterPerPlaneArea = 0.25f * m_outputSize.x() * m_outputSize.y() * aspect * cot * cot;
+    // Why light tracing cannot project onto this image, or "" when it can.
+    std::string lightTracingRefusal() const {
+        if (!isRigid()) return "the camera's toWorld scales or shears";
+        // Light tracing weighs a splat by the raster area per solid angle, width^2 cot^2 / 4 on
+        // the axis, which overflows for a very narrow fov on a large image (rendering without
+        // light tracing is unaffected).
+        if (!std::isfinite(m_rasterPerPlaneArea))
+            return absl::StrFormat(
+                "the fov %g degrees is too narrow for light tracing on a %dx%d image: the raster "
+                "area per solid angle exceeds the float range",
+                m_fov, m_outputSize.x(), m_outputSize.y());
+        return "";
     }
 
     // The unit direction, in camera space (looking along +z), of the pinhole ray through
@@ -86,8 +93,8 @@ class PinholeProjection {
 
     // The inverse of direction() and makeRay() for a pinhole at the origin of the lens plane:
     // where the world point lands on the image, or nothing when it lies behind the camera,
-    // outside the near/far range or outside the image. Needs a rigid toWorld (checked by
-    // isRigid()), since the raster density is computed in camera space.
+    // outside the near/far range or outside the image. Valid when lightTracingRefusal() is
+    // empty: it needs a rigid toWorld, since the raster density is computed in camera space.
     std::optional<CameraProjection> project(const Point3f& world) const {
         const Point3f local = m_worldToCamera.applyPoint(world);
         if (!(local.z() >= m_nearClip && local.z() <= m_farClip)) return std::nullopt;
@@ -124,6 +131,41 @@ class PinholeProjection {
     float fov() const { return m_fov; }
 
   private:
+    // Precomputes the image-to-camera mapping (Nori's).
+    void precompute() {
+        const float aspect = m_outputSize.x() / static_cast<float>(m_outputSize.y());
+        const float recip = 1.0f / (m_farClip - m_nearClip);
+        const float cot = 1.0f / std::tan(degToRad(m_fov / 2.0f));
+        Matrix4f perspective;
+        perspective << cot, 0, 0, 0, 0, cot, 0, 0, 0, 0, m_farClip * recip,
+            -m_nearClip * m_farClip * recip, 0, 0, 1, 0;
+        // Maps [0,1]^2 image coordinates to the near plane in camera space.
+        Eigen::Affine3f toSample =
+            Eigen::DiagonalMatrix<float, 3>(Vector3f(-0.5f, -0.5f * aspect, 1.0f)) *
+            Eigen::Translation3f(-1.0f, -1.0f / aspect, 0.0f);
+        m_sampleToCamera = Transform(toSample.matrix() * perspective).inverse();
+        m_invOutputSize = Vector2f(1.0f / m_outputSize.x(), 1.0f / m_outputSize.y());
+        m_worldToCamera = m_cameraToWorld.inverse();
+        m_cot = cot;
+        m_aspect = aspect;
+        m_rasterPerPlaneArea = 0.25f * m_outputSize.x() * m_outputSize.y() * aspect * cot * cot;
+    }
+
+    // Whether the rays through the image's corners and centre are unit vectors looking
+    // forwards (finite and z > 0), which they all are when the mapping is finite.
+    bool mapsToRays() const {
+        if (!m_sampleToCamera.matrix().allFinite()) return false;
+        const Vector2f size = m_outputSize.cast<float>();
+        for (const Point2f& raster :
+             {Point2f(0.0f, 0.0f), Point2f(size.x(), 0.0f), Point2f(0.0f, size.y()), Point2f(size),
+              Point2f(0.5f * size)}) {
+            const Vector3f d = direction(raster);
+            if (!d.allFinite() || !(d.z() > 0.0f) || !(std::abs(d.norm() - 1.0f) < 1e-5f))
+                return false;
+        }
+        return true;
+    }
+
     static constexpr float kMinNearClip = 1e-18f;
     Transform m_sampleToCamera, m_cameraToWorld, m_worldToCamera;
     float m_cot = 1.0f, m_aspect = 1.0f, m_rasterPerPlaneArea = 1.0f;

@@ -5,6 +5,7 @@
 #include "common/core/rng.h"
 #include "common/texture/plugin_testing.h"
 
+#include <absl/strings/str_format.h>
 #include <gtest/gtest.h>
 
 namespace alphorn {
@@ -96,6 +97,87 @@ TEST(CameraProjection, ClipDistancesThatBreakTheRaysAreRefused) {
                             ray.mint < ray.maxt);
             }
         }
+    }
+}
+
+// Nori's statistical test files aim every camera sample along the view axis with fov 1e-6 on a
+// 1x1 image. The rays must then be the pinhole rays of that field of view, not merely accepted:
+// through the raster point (x, y) of a w x h image, the camera-space direction is
+// ((1 - 2x/w) t, (1 - 2y/h) t h/w, 1) normalised, t = tan(fov / 2), within a few float steps of
+// the axis. The thin lens with apertureRadius 0 is the same camera.
+TEST(CameraProjection, ANarrowFieldOfViewSendsEverySampleAlongTheViewAxis) {
+    const Vector3f axis(0, -1, 0);  // lookat from (0, 0.01, 0) to the origin
+    for (const std::string type : {"perspective", "physical"})
+        for (const Vector2i& size : {Vector2i(1, 1), Vector2i(64, 48)}) {
+            const auto camera =
+                parseAs<Camera>("narrow.xml", absl::StrFormat(R"(<camera type="%s">
+  <integer name="width" value="%d"/><integer name="height" value="%d"/>
+  <float name="fov" value="1e-6"/>
+  <transform name="toWorld"><lookat origin="0, 0.01, 0" target="0, 0, 0" up="0, 0, 1"/></transform>
+</camera>)",
+                                                              type, size.x(), size.y()));
+            ASSERT_TRUE(camera) << type;
+            const double t = std::tan(0.5e-6 * M_PI / 180.0);
+            const double aspect = double(size.x()) / size.y();
+            for (const Point2f& fraction : {Point2f(0, 0), Point2f(1, 0), Point2f(0.5f, 0.5f),
+                                            Point2f(0.25f, 0.75f), Point2f(1, 1)}) {
+                const Point2f raster(fraction.x() * size.x(), fraction.y() * size.y());
+                Ray3f ray;
+                camera->sampleRay(ray, raster, Point2f(0.3f, 0.8f));
+                ASSERT_TRUE(ray.d.allFinite() && ray.o.allFinite()) << type;
+                EXPECT_NEAR(ray.d.norm(), 1.0f, 1e-6f);
+                // The camera's x axis is up x axis = (0, 0, 1) x (0, -1, 0) = (1, 0, 0), its y
+                // axis the up vector (0, 0, 1).
+                const double x = (1.0 - 2.0 * fraction.x()) * t,
+                             y = (1.0 - 2.0 * fraction.y()) * t / aspect;
+                EXPECT_NEAR(ray.d.x(), x, 1e-3 * t) << type << " " << raster.transpose();
+                EXPECT_NEAR(ray.d.z(), y, 1e-3 * t) << type << " " << raster.transpose();
+                EXPECT_GT(ray.d.dot(axis), 1.0f - 1e-7f);
+                // Every ray reaches the floor y = 0 within t * 0.01 of the origin.
+                const Point3f hit = ray(0.01f / -ray.d.y());
+                EXPECT_LE(Vector2f(hit.x(), hit.z()).norm(), 2.0 * 0.01 * t);
+                EXPECT_TRUE(ray.mint > 0.0f && ray.mint < ray.maxt);
+            }
+            // Light tracing projects onto this image too: a point on the axis lands at the
+            // image's centre.
+            EXPECT_EQ(camera->lightTracingRefusal(), "");
+            const auto centre = camera->project(Point3f(0, -1, 0));
+            ASSERT_TRUE(centre);
+            EXPECT_NEAR(centre->raster.x(), 0.5f * size.x(), 1e-3f * size.x());
+            EXPECT_NEAR(centre->raster.y(), 0.5f * size.y(), 1e-3f * size.y());
+            EXPECT_TRUE(std::isfinite(centre->rasterPerSolidAngle));
+        }
+}
+
+// Any fov in (0, 180) loads as long as float precision can hold the projection. Narrower than
+// that the rays would be NaN, so the fov is refused with its reason. A narrow fov whose raster
+// density (for light tracing) overflows still renders; only light tracing refuses it.
+TEST(CameraProjection, OnlyFieldsOfViewFloatCannotHoldAreRefused) {
+    for (const std::string type : {"perspective", "physical"}) {
+        for (const char* fov : {"1e-17", "1e-30", "3.5e-37", "179.99998"}) {
+            const auto camera = parseAs<Camera>("fov.xml", "<camera type=\"" + type + R"(">
+  <integer name="width" value="8"/><integer name="height" value="6"/>
+  <float name="fov" value=")" + fov + R"("/></camera>)");
+            ASSERT_TRUE(camera) << fov;
+            for (const Point2f& raster : {Point2f(0, 0), Point2f(4, 3), Point2f(8, 6)}) {
+                Ray3f ray;
+                camera->sampleRay(ray, raster, Point2f(0.5f, 0.5f));
+                EXPECT_TRUE(ray.d.allFinite()) << fov;
+                EXPECT_NEAR(ray.d.norm(), 1.0f, 1e-5f) << fov;
+                EXPECT_GT(ray.d.z(), 0.0f) << fov;
+            }
+        }
+        plugin_testing::expectParseError("fov_tiny.xml", "<camera type=\"" + type + R"(">
+  <float name="fov" value="1e-38"/></camera>)",
+                                         1,
+                                         "fov 1e-38 degrees is too narrow to render in float "
+                                         "precision");
+        const auto large = parseAs<Camera>("fov_large.xml", "<camera type=\"" + type + R"(">
+  <integer name="width" value="16384"/><integer name="height" value="16384"/>
+  <float name="fov" value="1e-15"/></camera>)");
+        EXPECT_NE(large->lightTracingRefusal().find("too narrow for light tracing"),
+                  std::string::npos)
+            << large->lightTracingRefusal();
     }
 }
 

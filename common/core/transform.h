@@ -9,7 +9,7 @@ namespace alphorn {
 class Transform {
   public:
     Transform() : m_transform(Matrix4f::Identity()), m_inverse(Matrix4f::Identity()) {}
-    explicit Transform(const Matrix4f& m) : m_transform(m), m_inverse(m.inverse()) {}
+    explicit Transform(const Matrix4f& m) : m_transform(m), m_inverse(inverseOf(m)) {}
     Transform(const Matrix4f& m, const Matrix4f& inv) : m_transform(m), m_inverse(inv) {}
 
     const Matrix4f& matrix() const { return m_transform; }
@@ -33,6 +33,18 @@ class Transform {
     }
     bool isIdentity() const { return m_transform.isIdentity(0.0f); }
     std::string toString() const;
+
+    // m^-1, in float where float holds it (the same bytes as ever) and in double where the
+    // determinant leaves the float range: a uniform scale s has determinant s^3, which is not
+    // a normal float beyond about s = 1e12 or below 1e-12, although s^-1 is. Not finite only
+    // when m is singular or its inverse exceeds the float range.
+    static Matrix4f inverseOf(const Matrix4f& m) {
+        if (std::isnormal(m.determinant())) {
+            const Matrix4f inverse = m.inverse();
+            if (inverse.allFinite()) return inverse;
+        }
+        return m.cast<double>().inverse().cast<float>();
+    }
 
   private:
     Matrix4f m_transform;

@@ -10,6 +10,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <fstream>
+
 namespace alphorn {
 namespace {
 
@@ -131,6 +134,35 @@ TEST(AreaLight, PowerIsPiAreaRadianceAndPhotonsAreCosineDistributed) {
     EXPECT_NEAR(flux.mean, light.power().g(), 5.0 * flux.standardError() + 1e-4);
     EXPECT_NEAR(cosine.mean, 2.0 / 3.0, 5.0 * cosine.standardError());
     EXPECT_NEAR(x.mean, 0.0, 5.0 * x.standardError());
+}
+
+// A light of zero area (here one degenerate triangle) loads, with a warning: it emits nothing.
+// Its power is 0 (never chosen by power), and its light samples carry nothing with density 0,
+// so uniform light selection stays unbiased. Refusing it refused a scene that renders.
+TEST(AreaLight, OfZeroAreaLoadsAndEmitsNothing) {
+    const std::string obj = ::testing::TempDir() + "alphorn_zero_area_light.obj";
+    std::ofstream(obj) << "v 0 1 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\n";
+    PropertyList meshProps;
+    meshProps.setString("filename", obj);
+    auto mesh =
+        std::static_pointer_cast<Mesh>(ObjectFactory::create(ObjectKind::Mesh, "obj", meshProps));
+    PropertyList lightProps;
+    lightProps.setColor("radiance", Color3f(1.0f));
+    auto light = ObjectFactory::create(ObjectKind::Emitter, "area", lightProps);
+    light->activate();
+    mesh->addChild(light, "");
+    EXPECT_NO_THROW(mesh->activate());
+    EXPECT_EQ(mesh->surfaceArea(), 0.0f);
+    const Emitter& emitter = *mesh->emitter();
+    EXPECT_TRUE(emitter.power().isZero());
+    Rng rng(11, 0, 0, StreamPurpose::Test);
+    for (int i = 0; i < 100; ++i) {
+        EmitterQueryRecord rec(Point3f(0.3f, 0.0f, 0.2f));
+        const Color3f value = emitter.sample(rec, Point2f(rng.nextFloat(), rng.nextFloat()));
+        EXPECT_TRUE(value.isZero());
+        EXPECT_EQ(rec.pdf, 0.0f);
+    }
+    std::remove(obj.c_str());
 }
 
 TEST(AreaLight, RejectsMissingRadiance) {

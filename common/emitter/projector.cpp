@@ -1,6 +1,7 @@
 // <emitter type="projector">: a delta-position light that projects a texture through a
 // perspective frustum, like a slide projector (PBRT v2's projection light).
-//   fov           horizontal field of view in degrees, in (0, 180) (default 30)
+//   fov           horizontal field of view in degrees, in (0, 180) (default 30); as for the
+//                 camera, only a fov so narrow that float precision cannot hold it is refused
 //   width height  only their ratio matters: the aspect of the projected image (default 1, 1)
 //   toWorld       position and orientation: it shines along local +z with local +y up, like
 //                 a camera; scaling in toWorld is ignored
@@ -43,6 +44,15 @@ class ProjectorLight : public DeltaPositionLight {
         m_tanY = m_tanX * static_cast<float>(height) / static_cast<float>(width);
         const double a = std::atan(double(m_tanX)), b = std::atan(double(m_tanY));
         m_solidAngle = 4.0 * std::asin(std::sin(a) * std::sin(b));
+        // As for the camera, a narrow fov is refused only where float precision ends: the
+        // intensity is power / Omega, and below about 3e-18 degrees (for a square image)
+        // 1 / Omega exceeds the float range.
+        if (!(m_tanY > 0.0f) || !std::isfinite(static_cast<float>(1.0 / m_solidAngle)))
+            props.fail(
+                "fov %g degrees (aspect %d:%d) is too narrow to render in float precision: the "
+                "frustum's solid angle %g sr makes the intensity power / solid angle exceed the "
+                "float range",
+                fov, width, height, m_solidAngle);
         m_scale = m_power / static_cast<float>(m_solidAngle);
     }
 

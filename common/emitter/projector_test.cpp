@@ -153,6 +153,45 @@ TEST(Projector, PhotonSamplingOfACheckerboard) {
     checkPhotons(kChecker, [](double u, double v) { return checker(u, v) + 0.01; });
 }
 
+// As for the camera, a narrow fov renders: at 1e-6 degrees (a beam of solid angle 3e-16 sr) the
+// intensity on the axis is power / Omega, a white image's power() is `power`, and photons carry
+// it, all within the beam. Only a fov whose intensity float cannot hold is refused, saying why.
+TEST(Projector, ANarrowFieldOfViewIsABeamOfTheGivenPower) {
+    auto light = parseAs<Emitter>("projector_narrow.xml", R"(<emitter type="projector">
+  <color name="power" value="2"/><float name="fov" value="1e-6"/>
+</emitter>)");
+    ASSERT_TRUE(light);
+    const double a = 0.5e-6 * M_PI / 180.0, omega = 4.0 * std::asin(std::sin(a) * std::sin(a));
+    EmitterQueryRecord rec(Point3f(0, 0, 3));
+    const Color3f irradiance = light->sample(rec, Point2f(0.5f, 0.5f));
+    EXPECT_NEAR(irradiance.r() * 9.0, 2.0 / omega, 1e-4 * 2.0 / omega);
+    EXPECT_NEAR(light->power().r(), 2.0f, 1e-4f);
+    Rng rng(9, 0, 0, StreamPurpose::Test);
+    double sum = 0;
+    const int n = 10000;
+    for (int k = 0; k < n; ++k) {
+        Ray3f ray;
+        const Color3f flux = light->samplePhoton(ray, Point2f(rng.nextFloat(), rng.nextFloat()),
+                                                 Point2f(rng.nextFloat(), rng.nextFloat()));
+        ASSERT_TRUE(flux.allFinite());
+        const Vector3f d = ray.d.normalized();
+        ASSERT_LE(std::abs(d.x() / d.z()), std::tan(a) * 1.0001);
+        ASSERT_LE(std::abs(d.y() / d.z()), std::tan(a) * 1.0001);
+        sum += flux.r();
+    }
+    EXPECT_NEAR(sum / n, 2.0, 1e-3);
+    expectParseError("projector_tiny.xml", R"(<emitter type="projector">
+  <float name="fov" value="1e-18"/>
+</emitter>)",
+                     1,
+                     "fov 1e-18 degrees (aspect 1:1) is too narrow to render in float precision");
+    for (const char* fov : {"0", "-1", "nan", "inf", "180"})
+        expectParseError("projector_fov.xml",
+                         std::string(R"(<emitter type="projector"><float name="fov" value=")") +
+                             fov + R"("/></emitter>)",
+                         1, "fov must be in (0, 180) degrees, got ");
+}
+
 TEST(Projector, ClearErrors) {
     expectParseError("projector_fov.xml", R"(<emitter type="projector">
   <float name="fov" value="180"/>

@@ -1,8 +1,9 @@
 // <emitter type="spotlight">: PBRT v2's spotlight. A delta-position light at toWorld(0, 0, 0)
 // shining along toWorld's local +z axis.
 //   power         total emitted flux (a colour), required
-//   totalAngle    half-angle of the cone outside which it is dark, in degrees, in (0, 90]
-//                 (default 30)
+//   totalAngle    half-angle of the cone outside which it is dark, in degrees, in (0, 180]
+//                 (default 30); a cone too narrow for float cosines (below about 0.014
+//                 degrees) is refused
 //   falloffStart  half-angle up to which the intensity is full, in degrees, in (0, totalAngle]
 //                 (default 25)
 //   toWorld       position and orientation
@@ -23,10 +24,12 @@ class SpotLight : public DeltaPositionLight {
         m_power = props.getNonNegativeColor("power", Color3f(0.0f));
         const float totalAngle = props.getFloat("totalAngle", 30.0f);
         const float falloffStart = props.getFloat("falloffStart", 25.0f);
-        if (!(totalAngle > 0.0f && totalAngle <= 90.0f))
-            props.fail("totalAngle must be in (0, 90] degrees, got %g", totalAngle);
-        if (!(falloffStart > 0.0f && falloffStart <= 90.0f))
-            props.fail("falloffStart must be in (0, 90] degrees, got %g", falloffStart);
+        // Every half-angle up to 180 degrees (a cone wider than a hemisphere) is a cone: the
+        // falloff, the flux integral and the photon sampling all work in cos theta in [-1, 1].
+        if (!(totalAngle > 0.0f && totalAngle <= 180.0f))
+            props.fail("totalAngle must be in (0, 180] degrees, got %g", totalAngle);
+        if (!(falloffStart > 0.0f && falloffStart <= 180.0f))
+            props.fail("falloffStart must be in (0, 180] degrees, got %g", falloffStart);
         if (falloffStart > totalAngle)
             props.fail("falloffStart (%g degrees) must not exceed totalAngle (%g degrees)",
                        falloffStart, totalAngle);
@@ -39,6 +42,14 @@ class SpotLight : public DeltaPositionLight {
 
         m_cosTotal = std::cos(degToRad(totalAngle));
         m_cosStart = std::cos(degToRad(falloffStart));
+        // Directions are tested against the cone by their float cosine: below about 0.014
+        // degrees cos(totalAngle) rounds to 1, the cone holds no direction but the axis itself
+        // and the intensity power / (cone's solid angle) is infinite.
+        if (!(m_cosTotal < 1.0f))
+            props.fail(
+                "totalAngle %g degrees is too narrow to render in float precision: its cosine "
+                "rounds to 1, so the cone holds no direction (at least about 0.014 degrees)",
+                totalAngle);
         // The two parts of the flux integral over cos theta (per 2 pi and per unit intensity).
         m_innerMass = 1.0 - double(m_cosStart);
         m_outerMass = (double(m_cosStart) - double(m_cosTotal)) / 5.0;

@@ -76,9 +76,10 @@ TEST(SpotLight, IrradianceOnAPlaneAtTheCentreAndBetweenTheCones) {
 
 // Directions of emitted photons follow the intensity exactly (chi-square over cos theta and
 // phi), and each carries `power`, so photon fluxes sum to power.
-TEST(SpotLight, PhotonsFollowTheIntensityAndSumToPower) {
-    auto light = spot("", 30.0f, 25.0f);  // identity: local = world
-    const double cosT = std::cos(M_PI / 6), cosS = std::cos(25.0 * M_PI / 180);
+void checkPhotons(float totalAngle, float falloffStart) {
+    auto light = spot("", totalAngle, falloffStart);  // identity: local = world
+    const double cosT = std::cos(totalAngle * M_PI / 180),
+                 cosS = std::cos(falloffStart * M_PI / 180);
     EXPECT_TRUE(light->power().isApprox(Color3f(10, 20, 5)));
     const int muBins = 24, phiBins = 8, n = 200000;
     std::vector<double> observed(muBins * phiBins, 0.0), expected(muBins * phiBins, 0.0);
@@ -114,7 +115,11 @@ TEST(SpotLight, PhotonsFollowTheIntensityAndSumToPower) {
     EXPECT_NEAR(flux[2] / n, 5.0, 1e-4);
     const auto result = stats::chi2Test(observed, expected, n, 5.0, 0.01);
     EXPECT_TRUE(result.passed) << result.message;
+}
 
+TEST(SpotLight, PhotonsFollowTheIntensityAndSumToPower) {
+    checkPhotons(30.0f, 25.0f);
+    Rng rng(22, 0, 0, StreamPurpose::Test);
     // A rotated spotlight emits around its own axis.
     auto aimed = spot(kAimed);
     Vector3f mean = Vector3f::Zero();
@@ -127,6 +132,43 @@ TEST(SpotLight, PhotonsFollowTheIntensityAndSumToPower) {
     EXPECT_GT(mean.normalized().dot(Vector3f(0, -1, 0)), 0.999f);
 }
 
+// A cone wider than a hemisphere is a cone too (PBRT's spotlight takes any angle): the falloff,
+// the flux integral and the photons all work in cos theta in [-1, 1], up to a full sphere at
+// 180 degrees. A narrow one renders down to where float cosines end.
+TEST(SpotLight, ConesWiderThanAHemisphereAndNarrowOnesRender) {
+    checkPhotons(120.0f, 100.0f);
+    checkPhotons(180.0f, 150.0f);
+    auto wide = spot(kAimed, 120.0f, 100.0f);
+    const double cosT = std::cos(120.0 * M_PI / 180), cosS = std::cos(100.0 * M_PI / 180);
+    const double i0 = centralIntensity(10.0, cosT, cosS);
+    const Vector3f axis(0, -1, 0), perp(1, 0, 0);
+    for (float degrees : {0.0f, 99.0f, 110.0f, 119.0f, 121.0f, 170.0f}) {
+        const float t = degToRad(degrees);
+        EmitterQueryRecord rec(Point3f(1, 2, 3) + 2.0f * (std::cos(t) * axis + std::sin(t) * perp));
+        const double intensity = double(wide->sample(rec, Point2f(0.5f, 0.5f)).r()) * 4.0;
+        const double expected = i0 * falloff(std::cos(double(t)), cosT, cosS);
+        EXPECT_NEAR(intensity, expected, 1e-4 * i0) << degrees;
+    }
+    // 0.05 degrees: a cone a few float steps of cos theta wide (1 - cos = 3.8e-7, float steps
+    // of 6e-8), so its intensity is that of the nearest cone of float cosines, within 20% of
+    // the exact one; photons stay inside it.
+    auto narrow = spot("", 0.05f, 0.03f);
+    const double cosNarrowT = std::cos(double(degToRad(0.05f))),
+                 cosNarrowS = std::cos(double(degToRad(0.03f)));
+    EmitterQueryRecord onAxis(Point3f(0, 0, 2));
+    const double i0Narrow = centralIntensity(10.0, cosNarrowT, cosNarrowS);
+    EXPECT_NEAR(double(narrow->sample(onAxis, Point2f(0.5f, 0.5f)).r()) * 4.0, i0Narrow,
+                0.2 * i0Narrow);
+    Rng rng(23, 0, 0, StreamPurpose::Test);
+    for (int k = 0; k < 1000; ++k) {
+        Ray3f ray;
+        const Color3f f = narrow->samplePhoton(ray, Point2f(0.5f, 0.5f),
+                                               Point2f(rng.nextFloat(), rng.nextFloat()));
+        ASSERT_TRUE(f.isApprox(Color3f(10, 20, 5)));
+        ASSERT_GE(ray.d.normalized().z(), float(cosNarrowT) - 1e-7f);
+    }
+}
+
 TEST(SpotLight, ClearErrors) {
     expectParseError("spot_order.xml", R"(<scene>
   <emitter type="spotlight">
@@ -136,9 +178,14 @@ TEST(SpotLight, ClearErrors) {
 </scene>)",
                      2, "falloffStart");
     expectParseError("spot_wide.xml", R"(<emitter type="spotlight">
-    <color name="power" value="1"/><float name="totalAngle" value="95"/>
+    <color name="power" value="1"/><float name="totalAngle" value="181"/>
 </emitter>)",
-                     1, "totalAngle");
+                     1, "totalAngle must be in (0, 180] degrees, got 181");
+    expectParseError("spot_narrow.xml", R"(<emitter type="spotlight">
+    <color name="power" value="1"/>
+    <float name="totalAngle" value="0.01"/><float name="falloffStart" value="0.01"/>
+</emitter>)",
+                     1, "totalAngle 0.01 degrees is too narrow to render in float precision");
     expectParseError("spot_zero.xml", R"(<emitter type="spotlight">
     <color name="power" value="1"/><float name="totalAngle" value="0"/>
 </emitter>)",

@@ -7,6 +7,8 @@
 
 #include <absl/strings/str_format.h>
 
+#include <iostream>
+
 namespace alphorn {
 
 uint64_t meshMemoryBytes(uint64_t triangles, uint64_t vertices, bool normals, bool uvs) {
@@ -87,8 +89,14 @@ void Mesh::activate() {
             ObjectFactory::create(ObjectKind::BSDF, "diffuse", props));
         m_bsdf->activate();
     }
+    // A light of zero area (all its triangles degenerate, or too small for their area to be a
+    // float) renders: it is never hit, never chosen by power, and its light samples carry
+    // nothing, so the image is the scene's without it. Nothing to refuse, but likely not meant.
     if (m_emitter && !(m_surfaceArea > 0.0f))
-        fail("the mesh carries an area emitter but has zero surface area");
+        std::cerr << absl::StrFormat(
+            "warning: %s: the mesh carries an area emitter but has zero surface area; it emits "
+            "nothing\n",
+            source());
     m_frameFollowsUvs = m_uvs.cols() > 0 && m_bsdf->needsTangentFrame();
 }
 

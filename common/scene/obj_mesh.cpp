@@ -405,6 +405,13 @@ class WavefrontOBJ : public Mesh {
             if (hasNormals) {
                 Normal3f world = toWorld.applyNormal(Normal3f(geometry.normals.col(i)));
                 float length = world.norm();
+                // Under a tiny or huge scale the transformed normal's squared length leaves the
+                // float range (1e20^2 under a scale of 1e-20) though the normal is fine: scaled
+                // by its largest component first, it normalises. Other normals keep their bytes.
+                if (!std::isnormal(length) && world.allFinite() && !world.isZero()) {
+                    world /= world.cwiseAbs().maxCoeff();
+                    length = world.norm();
+                }
                 // A zero normal in the file falls back to the geometric normal at shading time.
                 normals.col(i) = length > 0.0f ? Normal3f(world / length) : Normal3f::Zero();
             }

@@ -599,8 +599,16 @@ class Parser {
                            op.name());
                 m = transformOp(op, it->second) * m;
             }
-            if (!m.allFinite() || std::abs(m.determinant()) == 0.0f)
-                failAt(node, "the transform \"%s\" is singular or not finite", attr(node, "name"));
+            // Normals, cameras and 3D textures use the inverse: a transform without one (a
+            // zero scale collapses space onto a plane) cannot be rendered. Tiny and huge scales
+            // can (Transform inverts those in double, where their determinant still lives).
+            const Transform transform(m);
+            if (!m.allFinite() || !transform.inverseMatrix().allFinite())
+                failAt(node, "the transform \"%s\" is %s", attr(node, "name"),
+                       m.allFinite() ? "singular (it collapses space onto a plane, a line or a "
+                                       "point) or so near it that its inverse exceeds the float "
+                                       "range"
+                                     : "not finite");
             // Embree refuses (aborts on) rays whose origin lies beyond about 1.8e18; a camera or
             // light placed or scaled past 1e15 would send such rays.
             if (m.cwiseAbs().maxCoeff() > kMaxTransformEntry)
@@ -609,7 +617,7 @@ class Parser {
                        "within +-%g",
                        attr(node, "name"), kMaxTransformEntry, kMaxTransformEntry);
             failIfDuplicate(node, props);
-            props.setTransform(attr(node, "name"), Transform(m));
+            props.setTransform(attr(node, "name"), transform);
             return;
         }
         if (tag >= Tag::Translate) failAt(node, "<%s> must be inside a <transform>", node.name());

@@ -24,10 +24,13 @@ struct UVMapping {
         vscale = props.getFloat("vscale", 1.0f);
         uoffset = props.getFloat("uoffset", 0.0f);
         voffset = props.getFloat("voffset", 0.0f);
-        if (!std::isfinite(uscale) || !std::isfinite(vscale) || uscale == 0.0f || vscale == 0.0f)
-            props.fail("uscale and vscale must be finite and non-zero");
+        // The map only multiplies and adds, so any finite values render: a zero scale holds
+        // the lookup at the offset (a texture constant along that axis), a negative one mirrors
+        // it. NaN or inf would look the texture up at NaN or infinite coordinates.
+        if (!std::isfinite(uscale) || !std::isfinite(vscale))
+            props.fail("uscale and vscale must be finite, got %g and %g", uscale, vscale);
         if (!std::isfinite(uoffset) || !std::isfinite(voffset))
-            props.fail("uoffset and voffset must be finite");
+            props.fail("uoffset and voffset must be finite, got %g and %g", uoffset, voffset);
     }
     Point2f map(const Point2f& uv) const {
         return Point2f(uv.x() * uscale + uoffset, uv.y() * vscale + voffset);

@@ -60,6 +60,26 @@ TEST(Texture, UVShowsMappedCoordinates) {
     expectWithinBounds(*scaled);
 }
 
+// The uv mapping only multiplies and adds: a zero scale holds the lookup at the offset (the
+// texture is constant along that axis) and a negative one mirrors it; both render. Only NaN and
+// inf are refused.
+TEST(Texture, ZeroAndNegativeUVScalesRender) {
+    auto held = tex(R"(<texture type="uv"><float name="uscale" value="0"/>
+      <float name="uoffset" value="0.25"/><float name="vscale" value="-1"/></texture>)");
+    for (const Point2f& uv : {Point2f(0, 0.25f), Point2f(0.7f, 0.25f), Point2f(13.0f, 0.25f)})
+        expectColor(held->eval(uv, kNoPoint), Color3f(0.25f, 0.75f, 0.0f));
+    expectWithinBounds(*held);
+    auto flat = tex(R"(<texture type="checkerboard2d"><float name="uscale" value="0"/>
+      <float name="vscale" value="0"/><color name="color0" value="0.9"/></texture>)");
+    for (const Point2f& uv : {Point2f(0.3f, 0.9f), Point2f(-5.0f, 7.0f)})
+        expectColor(flat->eval(uv, kNoPoint), Color3f(0.9f));
+    for (const char* bad : {"nan", "inf"})
+        expectParseError("bad_uscale.xml",
+                         std::string(R"(<texture type="uv"><float name="uscale" value=")") + bad +
+                             R"("/></texture>)",
+                         1, "uscale and vscale must be finite");
+}
+
 TEST(Texture, Checkerboard2DOrientation) {
     // Scales differ in u and v, so swapping u and v would change the answers.
     auto t = tex(R"(<texture type="checkerboard2d">

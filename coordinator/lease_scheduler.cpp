@@ -321,6 +321,15 @@ std::optional<LeaseScheduler::Lease> LeaseScheduler::lease(uint64_t workerId) {
     return std::nullopt;
 }
 
+bool LeaseScheduler::couldLease(uint64_t workerId, uint64_t jobId) const {
+    auto worker = m_workers.find(workerId);
+    auto candidate = m_jobs.find(jobId);
+    if (worker == m_workers.end() || candidate == m_jobs.end()) return false;
+    const Job& job = candidate->second;
+    return job.running && !job.paused && mayRender(worker->second, job) &&
+           pickUnit(jobId, job, workerId).has_value();
+}
+
 // Audits come first: their results wait in the coordinator's memory, and a worker on probation
 // waits for them. Then locality: a worker keeps the per-pass data (photon maps) of the passes it
 // rendered last, so it gets another tile of the same pass chunk when one is pending; otherwise

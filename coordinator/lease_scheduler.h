@@ -127,6 +127,11 @@ class LeaseScheduler {
 
     // Leases the next unit to a known worker, or nothing when no unit is pending.
     std::optional<Lease> lease(uint64_t workerId);
+    // Whether lease(workerId) could give the worker a unit of this job now (not paused, its
+    // build, a unit open to it: not on probation there, not its own held result, not one that
+    // failed on its host while another host could take it). The simulation checks priorities
+    // with it.
+    bool couldLease(uint64_t workerId, uint64_t jobId) const;
     // A heartbeat for one held lease: renews it and returns true, or returns false when the
     // worker must drop it (expired, merged, reassigned, job ended). A lease unknown to this
     // process is re-adopted when `held` proves an earlier process granted it and the unit still

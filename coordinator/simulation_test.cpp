@@ -160,7 +160,11 @@ class Simulation {
         FilmBlock expected;
         v1::JobState state = v1::JOB_STATE_RUNNING;
         std::set<uint32_t> merged;  // units merged in the current coordinator process or restored
-        uint32_t durable = 0;       // units in the last checkpoint written
+        // Units whose result was held for an audit (RESULT_HELD) and not seen merged yet: the
+        // coordinator merges one later without an answer to anyone when no other worker is left
+        // to audit it (settleHeldResults).
+        std::set<uint32_t> held;
+        uint32_t durable = 0;  // units in the last checkpoint written
         uint32_t checkpointsSeen = 0;
         bool cancelRequested = false;
         bool paused = false;  // a client paused it: no new leases
@@ -218,7 +222,8 @@ class Simulation {
                                   "after the job's record",
                                   "after the job's directory",
                                   "not in the store",
-                                  "result for removed job"})
+                                  "result for removed job",
+                                  "held result merged unaudited"})
             if (line.find(event) != std::string::npos) ++g_coverage[event];
         m_trace.push_back(absl::StrFormat("t=%.1f %s", m_clock->monotonicSeconds(), line));
     }
@@ -431,8 +436,13 @@ class Simulation {
             if (other.state != v1::JOB_STATE_RUNNING || id == jobId) continue;
             const v1::JobStatus status = m_coordinator->listJobs(id).at(0);
             if (status.paused()) continue;
-            if (status.settings().priority() > priority &&
-                status.units_done() + status.units_leased() < status.units_total())
+            // A unit of the higher job open to this worker: not one held for an audit that it
+            // rendered, nor any while its own first result of that job waits for its audit.
+            bool open = false;
+            m_coordinator->inspect([&](const LeaseScheduler& scheduler) {
+                open = scheduler.couldLease(worker.id, id);
+            });
+            if (status.settings().priority() > priority && open)
                 violate(
                     absl::StrFormat("job %u (priority %d) leased while job %u (priority %d) "
                                     "has pending units",
@@ -505,6 +515,31 @@ class Simulation {
             if (job.cancelRequested)
                 violate(absl::StrFormat("a result merged into cancelled job %u", jobId));
             job.merged.insert(unit);
+            job.held.erase(unit);
+        } else if (disposition == v1::RESULT_HELD) {
+            job.held.insert(unit);
+        }
+    }
+
+    // Held results the coordinator merged unaudited (nobody else alive to render the unit
+    // again) count as merged from the moment the scheduler says so.
+    void settleHeldResults() {
+        for (auto& [id, job] : m_jobs) {
+            if (job.pruned || job.held.empty() || !findJob(id)) continue;
+            const uint64_t jobId = id;
+            std::vector<uint32_t> settled;
+            m_coordinator->inspect([&](const LeaseScheduler& scheduler) {
+                for (uint32_t unit : job.held)
+                    if (scheduler.unit(jobId, unit).state == LeaseScheduler::UnitState::Merged)
+                        settled.push_back(unit);
+            });
+            for (uint32_t unit : settled) {
+                if (job.merged.count(unit))
+                    violate(absl::StrFormat("job %u unit %u merged twice", id, unit));
+                job.merged.insert(unit);
+                job.held.erase(unit);
+                note(absl::StrFormat("job %u unit %u: held result merged unaudited", id, unit));
+            }
         }
     }
 
@@ -566,6 +601,7 @@ class Simulation {
         ++m_generation;
         copyStateDirectory(from, stateDirectory());
         fs::remove(stateDirectory() / "lock");
+        settleHeldResults();
         m_coordinator.reset();
         note("coordinator crash and restart");
         restarted(true);
@@ -586,6 +622,7 @@ class Simulation {
         m_crashTaken = false;
         m_crashCountdown = -1;
         m_coordinator->setDurableWriteHooks({});
+        settleHeldResults();
         m_coordinator.reset();
         ++m_generation;
         fs::remove(stateDirectory() / "lock");
@@ -596,6 +633,7 @@ class Simulation {
     void restartCoordinator() {
         m_coordinator->stop();
         if (m_crashTaken) return;  // it crashed while stopping: after the step
+        settleHeldResults();
         m_coordinator.reset();
         note("coordinator graceful stop and restart");
         // With a full disk the stop could not checkpoint: as after a crash.
@@ -662,6 +700,7 @@ class Simulation {
                 violate(absl::StrFormat("job %u restored %u units, %u were checkpointed", id,
                                         restored.size(), atLeast));
             job.merged = restored;
+            job.held.clear();  // held results live in the coordinator's memory only
             job.durable = uint32_t(restored.size());
         }
     }
@@ -782,6 +821,7 @@ class Simulation {
     // `storage`: also what is on disk (checkStorage), which only a submission, a registration, a
     // crash or the clock (retention) changes.
     void checkInvariants(bool storage = true) {
+        settleHeldResults();
         std::string problems;
         m_coordinator->inspect(
             [&](const LeaseScheduler& scheduler) { problems = scheduler.checkConsistency(); });

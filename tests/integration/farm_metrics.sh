@@ -2,8 +2,8 @@
 # Prometheus metrics, scraped by the real Prometheus server (Debian's /usr/bin/prometheus): a
 # coordinator and two workers serve /metrics (--http-listen) with a metrics token, Prometheus
 # scrapes them every second, and PromQL queries through its HTTP API must give the jobs' real
-# counts: units merged and leased = the job's units, samples = width x height x passes, jobs
-# done, photon paths traced = the photon passes built x photons per pass. /metrics without a
+# counts: units merged = the job's units, leased = those and the audits' second leases,
+# samples = width x height x passes, jobs done, photon paths traced = the photon passes built x photons per pass. /metrics without a
 # token, or with a token it does not accept, is refused (401) unless --http-anonymous-metrics;
 # a TLS coordinator serves it over HTTPS only.
 PROMETHEUS=${PROMETHEUS:-/usr/bin/prometheus}
@@ -106,21 +106,30 @@ expect() {
     done
     pass "$1 = $2"
 }
+# Audits: each worker's first unit of each job (and the audited share, which is 1% and may pick
+# none of these units) is rendered by a second worker too; its first result is held, the
+# second's merged. So audited units are leased, rendered and delivered twice, merged once.
+audited=$(($(job_field 1 units_audited) + $(job_field 2 units_audited)))
+((audited >= 1)) || fail "no unit was audited with two workers on two jobs"
 expect 'alphorn_jobs{state="done"}' 2
 expect 'alphorn_jobs{state="running"}' 0
 expect 'alphorn_units_merged_total' "$units"
-expect 'alphorn_units_leased_total' "$units"
-expect 'alphorn_units_leased_again_total' 0
+expect 'alphorn_units_leased_total' "$((units + audited))"
+expect 'alphorn_units_leased_again_total' "$audited"
 expect 'sum(alphorn_units_failed_total)' 0
+expect 'sum(alphorn_units_audited_total)' "$audited"
+expect 'alphorn_units_audited_total{outcome="agreed"}' "$audited"
 expect 'alphorn_samples_merged_total' "$samples"
-expect 'sum(alphorn_worker_samples_total)' "$samples"
-expect 'sum(alphorn_worker_units_rendered_total)' "$units"
+# The workers' samples and photons count the audits' second renders too.
+expect 'sum(alphorn_worker_samples_total) > bool '"$samples" 1
+expect 'sum(alphorn_worker_units_rendered_total)' "$((units + audited))"
 expect 'sum(alphorn_units_merged_by_worker_total)' "$units"
 expect 'sum(alphorn_worker_results_total{outcome="merged"})' "$units"
-expect 'alphorn_lease_wait_seconds_count' "$units"
+expect 'sum(alphorn_worker_results_total{outcome="held"})' "$audited"
+expect 'alphorn_lease_wait_seconds_count' "$((units + audited))"
 expect 'alphorn_result_seconds_count' "$units"
-expect 'sum(alphorn_worker_delivery_seconds_count)' "$units"
-expect 'sum(alphorn_worker_photons_traced_total)' "$photons"
+expect 'sum(alphorn_worker_delivery_seconds_count)' "$((units + audited))"
+expect 'sum(alphorn_worker_photons_traced_total) >= bool '"$photons" 1
 expect 'alphorn_pending_units' 0
 expect 'alphorn_leased_units' 0
 expect 'alphorn_workers{state="alive"}' 2

@@ -15,18 +15,30 @@
 namespace alphorn::coordinator {
 namespace {
 
-class ClientService : public CoordinatorJobTest {};
+class ClientService : public CoordinatorJobTest {
+  protected:
+    // The coordinator's client service on an in-process channel, called as a client calls it.
+    struct InProcess {
+        ClientServiceImpl service;
+        std::unique_ptr<grpc::Server> server;
+        std::unique_ptr<v1::ClientService::Stub> stub;
+        InProcess(Coordinator& coordinator, const std::string& token)
+            : service(coordinator, token) {
+            grpc::ServerBuilder builder;
+            builder.RegisterService(&service);
+            server = builder.BuildAndStart();
+            if (server) stub = v1::ClientService::NewStub(server->InProcessChannel({}));
+        }
+    };
+};
 
 TEST_F(ClientService, GetImageRefusesAnUnknownFormatAndAnExposureOutOfRange) {
     Coordinator coordinator(m_options);
     const uint64_t job = coordinator.submit(upload(coordinator)).job_id();
     const std::string token = farm::generateToken();
-    ClientServiceImpl service(coordinator, token);
-    grpc::ServerBuilder builder;
-    builder.RegisterService(&service);
-    const std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
-    ASSERT_TRUE(server);
-    const auto stub = v1::ClientService::NewStub(server->InProcessChannel({}));
+    InProcess client(coordinator, token);
+    ASSERT_TRUE(client.server);
+    const auto& stub = client.stub;
     const auto getImage = [&](int format, float exposure) {
         v1::GetImageRequest request;
         request.set_job_id(job);
@@ -58,7 +70,7 @@ TEST_F(ClientService, GetImageRefusesAnUnknownFormatAndAnExposureOutOfRange) {
         EXPECT_NE(refused.error_message().find("exposure"), std::string::npos)
             << refused.error_message();
     }
-    server->Shutdown();
+    client.server->Shutdown();
     coordinator.stop();
 }
 
@@ -109,12 +121,9 @@ TEST_F(ClientService, StorageErrorsNameTheDatabaseRelativeToTheStateDirectory) {
     Coordinator coordinator(m_options);
     const uint64_t job = coordinator.submit(upload(coordinator)).job_id();
     const std::string token = farm::generateToken();
-    ClientServiceImpl service(coordinator, token);
-    grpc::ServerBuilder builder;
-    builder.RegisterService(&service);
-    const std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
-    ASSERT_TRUE(server);
-    const auto stub = v1::ClientService::NewStub(server->InProcessChannel({}));
+    InProcess client(coordinator, token);
+    ASSERT_TRUE(client.server);
+    const auto& stub = client.stub;
 
     sqlite3* blocker = nullptr;
     ASSERT_EQ(sqlite3_open((fs::path(m_options.stateDirectory) / "state.sqlite").c_str(), &blocker),
@@ -136,7 +145,7 @@ TEST_F(ClientService, StorageErrorsNameTheDatabaseRelativeToTheStateDirectory) {
         << status.error_message();
     EXPECT_EQ(status.error_message().find(m_dir.string()), std::string::npos)
         << status.error_message();
-    server->Shutdown();
+    client.server->Shutdown();
     coordinator.stop();
 }
 

@@ -5,9 +5,9 @@
 # Usage: [TILE_SIZE=N [PREVIEW_FORMAT=film|png]] bench/farm_lock_bench.sh BUILD_DIR SCENE.xml WORKERS PASSES ROUNDS VARIANT...
 # (TILE_SIZE: the job's tile size, 1 unless set; PREVIEW_FORMAT: film unless set; see
 # bench_farm_load.)
-# Prints each run's bench_farm_load lines prefixed by the variant, then per variant the medians
-# over the rounds of the lease and result p99 and of the units per second, and their ratios to
-# the first variant's.
+# Prints each run's bench_farm_load lines and the coordinator's CPU time prefixed by the variant,
+# then per variant the medians over the rounds of the coordinator's CPU time, the lease and
+# result p99 and the units per second, and their ratios to the first variant's.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=$1 scene=$2 workers=$3 passes=$4 rounds=$5
@@ -41,6 +41,9 @@ for round in $(seq "$rounds"); do
         "$build/bench/bench_farm_load" "127.0.0.1:$(cat "$work/port")" "$work/client.token" \
             "$work/worker.token" "$scene" "$workers" "$passes" "$calls" "${TILE_SIZE:-1}" "${PREVIEW_FORMAT:-film}" |
             sed "s|^|$variant round $round: |" | tee -a "$work/results"
+        # The coordinator's own CPU time over the run (utime + stime, clock ticks).
+        cpu=$(awk -v hz="$(getconf CLK_TCK)" '{printf "%.2f", ($14 + $15) / hz}' "/proc/$coordinator/stat")
+        echo "$variant round $round: coordinator CPU $cpu s" | tee -a "$work/results"
         kill "$coordinator"
         wait "$coordinator" || true
         coordinator=
@@ -52,7 +55,12 @@ lines = open(sys.argv[1]).read().splitlines()
 pattern = re.compile(r"([0-9.]+) units/s; lease latency p50 [0-9.]+ ms, p99 ([0-9.]+) ms; "
                      r"result latency p50 [0-9.]+ ms, p99 ([0-9.]+) ms")
 medians = {}
+cpu_pattern = re.compile(r"coordinator CPU ([0-9.]+) s")
 for variant in sys.argv[2:]:
+    cpus = [float(cpu_pattern.search(line).group(1)) for line in lines
+            if line.startswith(variant + " round") and cpu_pattern.search(line)]
+    if cpus:
+        print("%s: coordinator CPU median %.2f s" % (variant, statistics.median(cpus)))
     runs = [pattern.search(line).groups() for line in lines
             if line.startswith(variant + " round") and pattern.search(line)]
     columns = [statistics.median(float(run[i]) for run in runs) for i in range(3)]

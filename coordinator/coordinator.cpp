@@ -142,25 +142,24 @@ void Coordinator::stop() {
     if (m_background.joinable()) m_background.join();
     m_jobsUnsavedAtStop = checkpointDirtyJobs();
     saveChangedEventLogs();
-    if (m_jobsUnsavedAtStop > 0) {
-        std::lock_guard lock(m_mutex);
-        for (auto& [id, job] : m_jobs) {
-            if (job->state != v1::JOB_STATE_RUNNING || !job->film->dirty()) continue;
-            m_unitsUnsavedAtStop += job->film->unsavedCount();
-            logError("checkpoint.lost",
-                     {field("job", id), field("units_unsaved", job->film->unsavedCount()),
-                      field("units_saved", job->film->mergedCount() - job->film->unsavedCount()),
-                      field("error", job->film->checkpointError())});
-        }
-    }
-    if (m_jobsUnsavedAtStop > 0)
-        logError("coordinator.stopped", {field("jobs_unsaved", m_jobsUnsavedAtStop),
-                                         field("units_unsaved", m_unitsUnsavedAtStop),
-                                         field("consequence",
-                                               "their units merged since the last checkpoint are "
-                                               "rendered again after a restart")});
-    else
+    if (m_jobsUnsavedAtStop == 0) {
         logInfo("coordinator.stopped");
+        return;
+    }
+    std::lock_guard lock(m_mutex);
+    for (auto& [id, job] : m_jobs) {
+        if (job->state != v1::JOB_STATE_RUNNING || !job->film->dirty()) continue;
+        m_unitsUnsavedAtStop += job->film->unsavedCount();
+        logError("checkpoint.lost",
+                 {field("job", id), field("units_unsaved", job->film->unsavedCount()),
+                  field("units_saved", job->film->mergedCount() - job->film->unsavedCount()),
+                  field("error", job->film->checkpointError())});
+    }
+    logError("coordinator.stopped", {field("jobs_unsaved", m_jobsUnsavedAtStop),
+                                     field("units_unsaved", m_unitsUnsavedAtStop),
+                                     field("consequence",
+                                           "their units merged since the last checkpoint are "
+                                           "rendered again after a restart")});
 }
 
 void Coordinator::backgroundLoop() {
@@ -212,8 +211,8 @@ void Coordinator::tick() {
 
 void Coordinator::forgiveStall(double now) {
     std::lock_guard lock(m_mutex);
+    // m_lastTick is the end of the previous tick (tick()).
     const double gap = now - m_lastTick;
-    m_lastTick = now;
     if (!(gap > m_options.stallSeconds)) return;
     // The background thread ticks every 200 ms; a gap this long means the whole process stood
     // still, heartbeats unread: the workers did nothing wrong, so nobody's lease is charged.
@@ -421,9 +420,7 @@ v1::JobStatus Coordinator::statusLocked(const Job& job) const {
     status.set_job_id(job.id);
     *status.mutable_settings() = job.description.settings();
     status.set_state(job.state);
-    status.set_error(job.error.find('/') == std::string::npos
-                         ? job.error
-                         : relativeToStateDirectory(job.error, m_options.stateDirectory));
+    status.set_error(relativeToStateDirectory(job.error, m_options.stateDirectory));
     if (job.state == v1::JOB_STATE_RUNNING && !film.checkpointError().empty())
         status.set_error(absl::StrFormat(
             "cannot write the checkpoint (%s); retrying every %.3g s",
@@ -529,8 +526,7 @@ void Coordinator::changedLocked(Job& job) {
 void Coordinator::eventLocked(Job& job, v1::JobEventKind kind, std::string message,
                               uint64_t workerId, std::optional<uint32_t> unitIndex) {
     // The log is read by clients: it names files in the state directory relative to it.
-    if (message.find('/') != std::string::npos)
-        message = relativeToStateDirectory(message, m_options.stateDirectory);
+    message = relativeToStateDirectory(message, m_options.stateDirectory);
     job.events.add(m_clock->wallSeconds(), kind, std::move(message), workerId, unitIndex);
     changedLocked(job);
 }
@@ -932,7 +928,7 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
                           header.invalid_samples(), "",
                           header.built_pass_data(), header.rays(),
                           header.render_seconds(),  compressedFilm.size()};
-        const bool audited = !m_scheduler->heldResults(jobId, unitIndex).empty();
+        const bool audited = m_heldResults.count({jobId, unitIndex}) > 0;
         if (!audited && !m_scheduler->wantsAudit(jobId, unitIndex, result.workerId)) {
             switch (mergeLocked(job, unitIndex, leaseId, block, result, false)) {
                 case MergeOutcome::Discarded:
@@ -946,19 +942,11 @@ v1::ResultDisposition Coordinator::report(const v1::ResultChunk& header,
                     break;
             }
         } else {
-            result.compressed = compressedFilm;
-            if (holdOrJudgeLocked(job, unitIndex, leaseId, std::move(result)))
-                return v1::RESULT_HELD;
+            HeldResult held = result;
+            held.compressed = compressedFilm;
+            if (holdOrJudgeLocked(job, unitIndex, leaseId, std::move(held))) return v1::RESULT_HELD;
             // Agreed with a held result: the bytes are the same, this block is merged.
-            const HeldResult credit{header.worker_id(),
-                                    "",
-                                    0,
-                                    "",
-                                    header.built_pass_data(),
-                                    header.rays(),
-                                    header.render_seconds(),
-                                    compressedFilm.size()};
-            if (mergeLocked(job, unitIndex, leaseId, block, credit, true) ==
+            if (mergeLocked(job, unitIndex, leaseId, block, result, true) ==
                 MergeOutcome::Completed)
                 completed = &job;
         }

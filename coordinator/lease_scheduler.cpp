@@ -133,9 +133,27 @@ void LeaseScheduler::forgetWorker(uint64_t workerId) {
         Job& held = job(ref.jobId);
         UnitSlot& slot = held.units[ref.unitIndex];
         release(held, slot);
-        if (held.running && !held.audits.count(ref.unitIndex)) held.pending.insert(ref.unitIndex);
+        requeue(held, ref.unitIndex);
     }
     m_workers.erase(it);
+}
+
+void LeaseScheduler::requeue(Job& job, uint32_t unitIndex) {
+    if (job.running && !job.audits.count(unitIndex)) job.pending.insert(unitIndex);
+}
+
+bool LeaseScheduler::failedOnHost(const Job& job, uint32_t unitIndex, const std::string& host) {
+    auto failed = job.failedOn.find(unitIndex);
+    return failed != job.failedOn.end() && failed->second.count(host);
+}
+
+template <typename Excluded>
+bool LeaseScheduler::anyLiveWorker(const Job& job, Excluded excluded) const {
+    const double recent = m_clock.monotonicSeconds() - m_options.leaseSeconds;
+    for (const auto& [id, worker] : m_workers)
+        if (worker.lastSeen >= recent && mayRender(worker, job) && !excluded(id, worker))
+            return true;
+    return false;
 }
 
 std::vector<std::pair<uint64_t, uint32_t>> LeaseScheduler::quarantineWorker(uint64_t workerId) {
@@ -150,7 +168,7 @@ std::vector<std::pair<uint64_t, uint32_t>> LeaseScheduler::quarantineWorker(uint
         const LeaseRef ref = m_leases.at(leaseId);
         Job& held = job(ref.jobId);
         release(held, held.units[ref.unitIndex]);
-        if (held.running && !held.audits.count(ref.unitIndex)) held.pending.insert(ref.unitIndex);
+        requeue(held, ref.unitIndex);
     }
     for (auto& [jobId, held] : m_jobs) {
         for (auto audit = held.audits.begin(); audit != held.audits.end();) {
@@ -182,17 +200,10 @@ bool LeaseScheduler::mayRender(const Worker& worker, const Job& job) const {
 bool LeaseScheduler::anotherLiveWorker(const Job& job, uint64_t workerId,
                                        const std::vector<uint64_t>& besides,
                                        std::optional<uint32_t> unitIndex) const {
-    const double recent = m_clock.monotonicSeconds() - m_options.leaseSeconds;
-    const std::set<std::string>* failedHosts = nullptr;
-    if (unitIndex)
-        if (auto failed = job.failedOn.find(*unitIndex); failed != job.failedOn.end())
-            failedHosts = &failed->second;
-    for (const auto& [id, worker] : m_workers)
-        if (id != workerId && worker.lastSeen >= recent && mayRender(worker, job) &&
-            std::find(besides.begin(), besides.end(), id) == besides.end() &&
-            !(failedHosts && failedHosts->count(worker.host)))
-            return true;
-    return false;
+    return anyLiveWorker(job, [&](uint64_t id, const Worker& worker) {
+        return id == workerId || std::find(besides.begin(), besides.end(), id) != besides.end() ||
+               (unitIndex && failedOnHost(job, *unitIndex, worker.host));
+    });
 }
 
 const std::string& LeaseScheduler::hostOf(uint64_t workerId) const {
@@ -205,13 +216,6 @@ LeaseScheduler::Failure LeaseScheduler::failAudit(uint64_t jobId, Job& target, u
                                                   uint64_t workerId) {
     target.failedOn[unitIndex].insert(hostOf(workerId));
     return Failure{jobId, unitIndex, target.units[unitIndex].attempts, false, true};
-}
-
-bool LeaseScheduler::liveWorkerOnAnotherHost(const Job& job, const std::string& host) const {
-    const double recent = m_clock.monotonicSeconds() - m_options.leaseSeconds;
-    for (const auto& [id, worker] : m_workers)
-        if (worker.host != host && worker.lastSeen >= recent && mayRender(worker, job)) return true;
-    return false;
 }
 
 std::string LeaseScheduler::idleReason(uint64_t workerId) const {
@@ -338,20 +342,18 @@ bool LeaseScheduler::couldLease(uint64_t workerId, uint64_t jobId) const {
 std::optional<uint32_t> LeaseScheduler::pickUnit(uint64_t jobId, const Job& job,
                                                  uint64_t workerId) const {
     const Worker& me = m_workers.at(workerId);
-    for (const auto& [unitIndex, renderers] : job.audits) {
-        auto failed = job.failedOn.find(unitIndex);
+    for (const auto& [unitIndex, renderers] : job.audits)
         if (unitIndex < job.leaseLimit && job.units[unitIndex].state == UnitState::Pending &&
             std::find(renderers.begin(), renderers.end(), workerId) == renderers.end() &&
-            (failed == job.failedOn.end() || !failed->second.count(me.host)))
+            !failedOnHost(job, unitIndex, me.host))
             return unitIndex;
-    }
     if (me.auditing.count(jobId)) return std::nullopt;  // on probation: its first result waits
     // A unit that failed on this host goes to another one first, when one could take it.
-    const bool avoidFailures = !job.failedOn.empty() && liveWorkerOnAnotherHost(job, me.host);
+    const bool avoidFailures =
+        !job.failedOn.empty() &&
+        anyLiveWorker(job, [&](uint64_t, const Worker& worker) { return worker.host == me.host; });
     const auto allowed = [&](uint32_t unitIndex) {
-        if (!avoidFailures) return true;
-        auto failed = job.failedOn.find(unitIndex);
-        return failed == job.failedOn.end() || !failed->second.count(me.host);
+        return !avoidFailures || !failedOnHost(job, unitIndex, me.host);
     };
     const farm::JobGrid& grid = job.grid;
     // The first pending unit in [from, to) below the lease limit that the worker may take.
@@ -502,7 +504,7 @@ bool LeaseScheduler::handBack(uint64_t jobId, uint32_t unitIndex, uint64_t lease
     if (!holds(jobId, unitIndex, leaseId)) return false;
     Job& target = job(jobId);
     release(target, target.units[unitIndex]);
-    if (!target.audits.count(unitIndex)) target.pending.insert(unitIndex);
+    requeue(target, unitIndex);
     farm::CoordinatorMetrics::unitHandedBack();
     return true;
 }
@@ -519,7 +521,7 @@ LeaseScheduler::Failure LeaseScheduler::countFailure(uint64_t jobId, Job& target
         return failure;
     }
     target.failedOn[unitIndex].insert(hostOf(workerId));
-    if (!target.audits.count(unitIndex)) target.pending.insert(unitIndex);
+    requeue(target, unitIndex);
     return failure;
 }
 

@@ -237,8 +237,14 @@ class LeaseScheduler {
     // A failed lease of an audit render: releases it and notes the host.
     Failure failAudit(uint64_t jobId, Job& job, uint32_t unitIndex, uint64_t workerId);
     const std::string& hostOf(uint64_t workerId) const;
-    // Whether a live worker of the job's fingerprint, not quarantined, runs on another host.
-    bool liveWorkerOnAnotherHost(const Job& job, const std::string& host) const;
+    // Whether a worker that called within the lease time, of the job's fingerprint and not
+    // quarantined, is not `excluded(id, worker)`.
+    template <typename Excluded>
+    bool anyLiveWorker(const Job& job, Excluded excluded) const;
+    static bool failedOnHost(const Job& job, uint32_t unitIndex, const std::string& host);
+    // The unit waits for a lease again, unless its job ended or its result is held for an
+    // audit (then only an auditor may take it).
+    void requeue(Job& job, uint32_t unitIndex);
     bool mayRender(const Worker& worker, const Job& job) const;
     void grant(uint64_t jobId, Job& job, uint32_t unitIndex, uint64_t workerId, uint64_t leaseId);
     void release(Job& job, UnitSlot& slot);

@@ -31,6 +31,9 @@ std::string relativeToStateDirectory(const std::string& message,
     // The directory as given and as resolved, without trailing slashes, longest first: a
     // message may name it either way (SQLite names the file it was opened with, the file
     // system's errors the path they were handed).
+    // No path without a '/': most messages (and every event of a healthy job) need no work, in
+    // particular not the file system calls that resolve the directory below.
+    if (message.find('/') == std::string::npos) return message;
     std::vector<std::string> spellings;
     const auto addSpelling = [&](std::string spelling) {
         while (spelling.size() > 1 && spelling.back() == '/') spelling.pop_back();

@@ -1,8 +1,8 @@
 #include "worker/worker.h"
-#include "common/farm/build_identity.h"
 
 #include "common/core/error.h"
 #include "common/core/system_memory.h"
+#include "common/farm/build_identity.h"
 #include "common/farm/bundle.h"
 #include "common/farm/chunks.h"
 #include "common/farm/convert.h"
@@ -113,20 +113,16 @@ uint64_t photonsTraced(const PassData* pass) {
     return photons ? std::max(photons->emitted, photons->volumeEmitted) : 0;
 }
 
-// Everything the scene a unit is rendered with depends on, as one comparable string.
 // The host id kept in the cache directory (made on first use): 16 hex digits.
 std::string hostIdOf(const std::string& cacheDirectory) {
     const std::string path = (fs::path(cacheDirectory) / "host-id").string();
-    std::error_code error;
-    if (fs::exists(path, error)) {
-        try {
-            const std::string stored = farm::readFile(path);
-            if (stored.size() == 16 &&
-                stored.find_first_not_of("0123456789abcdef") == std::string::npos)
-                return stored;
-        } catch (const Error&) {
-            // Unreadable: made anew below.
-        }
+    try {
+        const std::string stored = farm::readFile(path);
+        if (stored.size() == 16 &&
+            stored.find_first_not_of("0123456789abcdef") == std::string::npos)
+            return stored;
+    } catch (const Error&) {
+        // Missing or unreadable: made anew below.
     }
     const std::string made = farm::generateToken().substr(0, 16);
     try {
@@ -137,6 +133,7 @@ std::string hostIdOf(const std::string& cacheDirectory) {
     return made;
 }
 
+// Everything the scene a unit is rendered with depends on, as one comparable string.
 std::string jobIdentity(const v1::JobDescription& job) {
     v1::JobDescription identity;
     identity.set_job_id(job.job_id());

@@ -23,7 +23,7 @@ LAYERS = [
     ("textures, filters and phase functions", ["common/texture", "common/filter", "common/phase"]),
     ("materials and media", ["common/bsdf", "common/medium"]),
     ("lights and cameras", ["common/emitter", "common/camera"]),
-    ("scene", ["common/scene"]),
+    ("scene", ["common/scene", "common/pbrt"]),
     ("photon maps", ["common/photon"]),
     ("integrators", ["common/integrator"]),
     ("rendering", ["common/render"]),

@@ -17,13 +17,14 @@ namespace alphorn {
 namespace {
 
 // The quad [-1, 1]^2 in the xz plane at y = 0 with normal +y, carrying an area light.
-std::shared_ptr<Mesh> makeQuadLight(const Color3f& radiance) {
+std::shared_ptr<Mesh> makeQuadLight(const Color3f& radiance, bool twoSided = false) {
     PropertyList meshProps;
     meshProps.setString("filename", sourcePath("scenes/meshes/quad.obj"));
     auto mesh =
         std::static_pointer_cast<Mesh>(ObjectFactory::create(ObjectKind::Mesh, "obj", meshProps));
     PropertyList lightProps;
     lightProps.setColor("radiance", radiance);
+    if (twoSided) lightProps.setBoolean("twoSided", true);
     auto light = ObjectFactory::create(ObjectKind::Emitter, "area", lightProps);
     light->activate();
     mesh->addChild(light, "");
@@ -134,6 +135,42 @@ TEST(AreaLight, PowerIsPiAreaRadianceAndPhotonsAreCosineDistributed) {
     EXPECT_NEAR(flux.mean, light.power().g(), 5.0 * flux.standardError() + 1e-4);
     EXPECT_NEAR(cosine.mean, 2.0 / 3.0, 5.0 * cosine.standardError());
     EXPECT_NEAR(x.mean, 0.0, 5.0 * x.standardError());
+}
+
+// pbrt-v4's two-sided area light: both sides emit the radiance, the power doubles, light samples
+// from behind have the density the front's have, and photons leave both sides in equal numbers,
+// cosine-distributed about the side's normal.
+TEST(AreaLight, TwoSidedEmitsOnBothSides) {
+    auto mesh = makeQuadLight(Color3f(1.0f, 2.0f, 3.0f), true);
+    const Emitter& light = *mesh->emitter();
+    EXPECT_NEAR(light.power().g(), 2.0f * Pi * 4.0f * 2.0f, 1e-4f);
+    EmitterQueryRecord front(Point3f(0.0f, 1.0f, 0.0f), Point3f(0.2f, 0.0f, 0.1f),
+                             Normal3f(0, 1, 0));
+    EmitterQueryRecord back(Point3f(0.0f, -1.0f, 0.0f), Point3f(0.2f, 0.0f, 0.1f),
+                            Normal3f(0, 1, 0));
+    EXPECT_EQ(light.eval(front).g(), 2.0f);
+    EXPECT_EQ(light.eval(back).g(), 2.0f);
+    EXPECT_GT(light.pdf(back), 0.0f);
+    EXPECT_FLOAT_EQ(light.pdf(back), light.pdf(front));
+    // Sampled from below, the light integrates its solid angle like from above.
+    const double omega = rectangleSolidAngle(-1, 1, -1, 1, 0.3, 1.5, -0.2);
+    Rng rng(17, 0, 0, StreamPurpose::Test);
+    stats::RunningStats estimate, below, cosine;
+    for (int i = 0; i < 20000; ++i) {
+        EmitterQueryRecord rec(Point3f(0.3f, -1.5f, -0.2f));
+        estimate.add(light.sample(rec, Point2f(rng.nextFloat(), rng.nextFloat())).r());
+    }
+    EXPECT_NEAR(estimate.mean, omega, 5.0 * estimate.standardError());
+    for (int i = 0; i < 100000; ++i) {
+        Ray3f ray;
+        const Color3f phi = light.samplePhoton(ray, Point2f(rng.nextFloat(), rng.nextFloat()),
+                                               Point2f(rng.nextFloat(), rng.nextFloat()));
+        ASSERT_EQ(phi.g(), light.power().g());
+        below.add(ray.d.y() < 0.0f ? 1.0 : 0.0);
+        cosine.add(std::abs(ray.d.y()));
+    }
+    EXPECT_NEAR(below.mean, 0.5, 5.0 * below.standardError());
+    EXPECT_NEAR(cosine.mean, 2.0 / 3.0, 5.0 * cosine.standardError());
 }
 
 // A light of zero area (here one degenerate triangle) loads, with a warning: it emits nothing.

@@ -7,10 +7,12 @@
 //   falloffStart  half-angle up to which the intensity is full, in degrees, in (0, totalAngle]
 //                 (default 25)
 //   toWorld       position and orientation
+//   falloff       "quartic" (default, PBRT v2's) or "smoothstep" (pbrt-v4's)
 // Between the cones the intensity falls off as delta^4 with
 // delta = (cos theta - cos totalAngle) / (cos falloffStart - cos totalAngle) (quartic in cosine
-// space). Integrating over the sphere, the flux of central intensity I is
-// 2 pi I [(1 - cos ts) + (cos ts - cos tt) / 5], so I = power / that bracket (the delta^4 term
+// space), or as smoothstep(delta) = delta^2 (3 - 2 delta), whose integral over delta is 1/2
+// (in place of the quartic's 1/5 below). Integrating over the sphere, the flux of central intensity
+// I is 2 pi I [(1 - cos ts) + (cos ts - cos tt) / 5], so I = power / that bracket (the delta^4 term
 // integrates to (cos ts - cos tt) / 5 over cos theta).
 #include "common/core/frame.h"
 #include "common/emitter/delta_light.h"
@@ -33,6 +35,10 @@ class SpotLight : public DeltaPositionLight {
         if (falloffStart > totalAngle)
             props.fail("falloffStart (%g degrees) must not exceed totalAngle (%g degrees)",
                        falloffStart, totalAngle);
+        const std::string falloffName = props.getString("falloff", "quartic");
+        if (falloffName != "quartic" && falloffName != "smoothstep")
+            props.fail("falloff must be \"quartic\" or \"smoothstep\", got \"%s\"", falloffName);
+        m_smoothstep = falloffName == "smoothstep";
         const Transform toWorld = props.getTransform("toWorld", Transform());
         m_position = toWorld.applyPoint(Point3f::Zero());
         // Directions are compared in a rigid frame, so scaling in toWorld cannot skew the cone.
@@ -52,7 +58,7 @@ class SpotLight : public DeltaPositionLight {
                 totalAngle);
         // The two parts of the flux integral over cos theta (per 2 pi and per unit intensity).
         m_innerMass = 1.0 - double(m_cosStart);
-        m_outerMass = (double(m_cosStart) - double(m_cosTotal)) / 5.0;
+        m_outerMass = (double(m_cosStart) - double(m_cosTotal)) / (m_smoothstep ? 2.0 : 5.0);
         m_intensity = m_power / static_cast<float>(2.0 * M_PI * (m_innerMass + m_outerMass));
     }
 
@@ -61,6 +67,7 @@ class SpotLight : public DeltaPositionLight {
         if (cosTheta >= m_cosStart) return 1.0f;
         if (cosTheta < m_cosTotal) return 0.0f;
         const float delta = (cosTheta - m_cosTotal) / (m_cosStart - m_cosTotal);
+        if (m_smoothstep) return delta * delta * (3.0f - 2.0f * delta);
         return (delta * delta) * (delta * delta);
     }
 
@@ -72,8 +79,9 @@ class SpotLight : public DeltaPositionLight {
     Color3f power() const override { return m_power; }
 
     // Samples directions exactly in proportion to the intensity: cos theta is drawn from the
-    // two-part marginal (uniform in the inner cone, density ~ delta^4 between the cones,
-    // inverted as delta = u^(1/5)), phi uniformly. Every photon then carries exactly `power`.
+    // two-part marginal (uniform in the inner cone, density ~ the falloff between the cones,
+    // inverted as delta = u^(1/5) for the quartic, by bisection for smoothstep), phi uniformly.
+    // Every photon then carries exactly `power`.
     Color3f samplePhoton(Ray3f& ray, const Point2f&, const Point2f& sample) const override {
         const double total = m_innerMass + m_outerMass;
         const double u = double(sample.x()) * total;
@@ -82,7 +90,7 @@ class SpotLight : public DeltaPositionLight {
             cosTheta = 1.0 - u;
         } else {
             const double x = (u - m_innerMass) / m_outerMass;  // in [0, 1)
-            const double delta = std::pow(x, 0.2);
+            const double delta = m_smoothstep ? inverseSmoothstepIntegral(x) : std::pow(x, 0.2);
             cosTheta = double(m_cosTotal) + delta * (double(m_cosStart) - double(m_cosTotal));
         }
         const double sinTheta = std::sqrt(std::max(0.0, 1.0 - cosTheta * cosTheta));
@@ -97,7 +105,20 @@ class SpotLight : public DeltaPositionLight {
     std::string toString() const override { return "spotlight, power " + m_power.toString(); }
 
   private:
+    // The delta in [0, 1] at which the normalised integral of smoothstep, 2 d^3 - d^4, reaches
+    // x: by bisection (the quartic has no handier inverse), to double precision.
+    static double inverseSmoothstepIntegral(double x) {
+        double low = 0.0, high = 1.0;
+        for (int i = 0; i < 60; ++i) {
+            const double mid = 0.5 * (low + high);
+            const double value = mid * mid * mid * (2.0 - mid);
+            (value < x ? low : high) = mid;
+        }
+        return 0.5 * (low + high);
+    }
+
     Frame m_frame;
+    bool m_smoothstep = false;
     Color3f m_power, m_intensity;
     float m_cosTotal, m_cosStart;
     double m_innerMass, m_outerMass;

@@ -1,6 +1,7 @@
 #include "common/core/rng.h"
 #include "common/emitter/emitter.h"
 #include "common/stats/chi_square.h"
+#include "common/stats/student_t.h"
 #include "common/texture/plugin_testing.h"
 
 #include <gtest/gtest.h>
@@ -55,6 +56,45 @@ TEST(SpotLight, FalloffBetweenTheConesIsQuarticInCosine) {
     EXPECT_NEAR(received(27.5f).g() / (2.0 * i0), 0.073656, 2e-5);
     EXPECT_EQ(received(30.5f).r(), 0.0f);
     EXPECT_EQ(received(120.0f).r(), 0.0f);
+}
+
+// pbrt-v4's falloff: smoothstep(delta) = delta^2 (3 - 2 delta) between the cones, and the flux
+// 2 pi I ((1 - cos start) + (cos start - cos total) / 2); photons follow it and carry the power.
+TEST(SpotLight, SmoothstepFalloffAsPbrtV4) {
+    auto light = parseAs<Emitter>("spot.xml", R"(<emitter type="spotlight">
+  <color name="power" value="10"/>
+  <float name="totalAngle" value="30"/><float name="falloffStart" value="25"/>
+  <string name="falloff" value="smoothstep"/>
+</emitter>)");
+    const double cosTotal = std::cos(M_PI / 6), cosStart = std::cos(25.0 * M_PI / 180);
+    const double i0 = 10.0 / (2.0 * M_PI * ((1.0 - cosStart) + (cosStart - cosTotal) / 2.0));
+    auto intensity = [&](double degrees) {
+        const double t = degrees * M_PI / 180;
+        EmitterQueryRecord rec(Point3f(float(std::sin(t)), 0.0f, float(std::cos(t))));
+        return double(light->sample(rec, Point2f(0.5f, 0.5f)).r());
+    };
+    EXPECT_NEAR(intensity(0), i0, 1e-5 * i0);
+    const double delta = (std::cos(27.5 * M_PI / 180) - cosTotal) / (cosStart - cosTotal);
+    EXPECT_NEAR(intensity(27.5) / i0, delta * delta * (3 - 2 * delta), 2e-5);
+    EXPECT_EQ(intensity(30.5), 0.0);
+    // Photons: the fraction leaving between the cones is the outer part of the flux.
+    Rng rng(31, 0, 0, StreamPurpose::Test);
+    stats::RunningStats outer, flux;
+    for (int k = 0; k < 100000; ++k) {
+        Ray3f ray;
+        flux.add(
+            light->samplePhoton(ray, Point2f(0.5f, 0.5f), Point2f(rng.nextFloat(), rng.nextFloat()))
+                .r());
+        ASSERT_GE(ray.d.normalized().z(), cosTotal - 1e-6);
+        outer.add(ray.d.normalized().z() < cosStart ? 1.0 : 0.0);
+    }
+    const double outerShare =
+        ((cosStart - cosTotal) / 2.0) / ((1.0 - cosStart) + (cosStart - cosTotal) / 2.0);
+    EXPECT_NEAR(outer.mean, outerShare, 5.0 * outer.standardError());
+    EXPECT_NEAR(flux.mean, 10.0, 1e-9);
+    expectParseError("spot.xml", R"(<emitter type="spotlight"><color name="power" value="1"/>
+  <string name="falloff" value="linear"/></emitter>)",
+                     1, "falloff must be");
 }
 
 TEST(SpotLight, IrradianceOnAPlaneAtTheCentreAndBetweenTheCones) {

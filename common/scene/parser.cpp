@@ -3,6 +3,7 @@
 #include "common/core/decimal_number.h"
 #include "common/core/system_memory.h"
 #include "common/core/warning.h"
+#include "common/pbrt/pbrt_scene_file.h"
 #include "common/scene/mesh.h"
 #include "common/scene/scene.h"
 #include "common/scene/scene_load.h"
@@ -76,19 +77,10 @@ class Parser {
           m_limits(limits),
           m_mode(mode) {
         m_loadContext->setBuildsAcceleration(use == SceneUse::Render);
-        namespace fs = std::filesystem;
-        if (!m_policy.confinementRoot.empty()) {
-            fs::path root = fs::absolute(m_policy.confinementRoot).lexically_normal();
-            if (root.filename().empty()) root = root.parent_path();  // a trailing '/'
-            m_policy.confinementRoot = root.string();
-            const fs::path scene = fs::absolute(path).lexically_normal();
-            const fs::path inRoot = scene.lexically_relative(root);
-            m_path = scene.string();
-            m_name = inRoot.generic_string();
-            if (inRoot.empty() || *inRoot.begin() == "..")
-                fail("%s: the scene file lies outside the directory its files are confined to",
-                     scene.filename().string());
-        }
+        const SceneFileNaming naming = nameSceneFile(path, policy);
+        m_path = naming.path;
+        m_name = naming.name;
+        m_policy = naming.policy;
     }
 
     // The scene file's name in messages: its path, or its path inside the confinement root.
@@ -290,18 +282,8 @@ class Parser {
             allowed, beyondFile, beyondCounts.triangles, beyondCounts.vertices));
     }
 
-    // Plugins name the files they could not read by their full path; inside a confinement root
-    // that is where the server keeps the bundle, which is none of the user's business.
     std::string withoutConfinementRoot(std::string message) const {
-        std::vector<std::string> roots{m_policy.confinementRoot};
-        std::error_code error;
-        const std::string real =
-            std::filesystem::canonical(m_policy.confinementRoot, error).string();
-        if (!error && real != roots.front()) roots.push_back(real);
-        for (const std::string& root : roots)
-            if (root != "/")
-                message = absl::StrReplaceAll(message, {{root + "/", ""}, {root, "."}});
-        return message;
+        return SceneFileNaming{m_path, m_name, m_policy}.withoutConfinementRoot(std::move(message));
     }
 
     std::string location(ptrdiff_t offset) const {
@@ -682,20 +664,60 @@ class Parser {
 
 }  // namespace
 
+SceneFileNaming nameSceneFile(const std::string& path, const FileReferencePolicy& policy) {
+    namespace fs = std::filesystem;
+    SceneFileNaming naming{path, path, policy};
+    if (policy.confinementRoot.empty()) return naming;
+    fs::path root = fs::absolute(policy.confinementRoot).lexically_normal();
+    if (root.filename().empty()) root = root.parent_path();  // a trailing '/'
+    naming.policy.confinementRoot = root.string();
+    const fs::path scene = fs::absolute(path).lexically_normal();
+    const fs::path inRoot = scene.lexically_relative(root);
+    naming.path = scene.string();
+    naming.name = inRoot.generic_string();
+    if (inRoot.empty() || *inRoot.begin() == "..")
+        fail("%s: the scene file lies outside the directory its files are confined to",
+             scene.filename().string());
+    return naming;
+}
+
+// Plugins name the files they could not read by their full path; inside a confinement root
+// that is where the server keeps the bundle, which is none of the user's business.
+std::string SceneFileNaming::withoutConfinementRoot(std::string message) const {
+    if (policy.confinementRoot.empty()) return message;
+    std::vector<std::string> roots{policy.confinementRoot};
+    std::error_code error;
+    const std::string real = std::filesystem::canonical(policy.confinementRoot, error).string();
+    if (!error && real != roots.front()) roots.push_back(real);
+    for (const std::string& root : roots)
+        if (root != "/") message = absl::StrReplaceAll(message, {{root + "/", ""}, {root, "."}});
+    return message;
+}
+
+bool isPbrtSceneFile(const std::string& path) {
+    return std::filesystem::path(path).extension() == ".pbrt";
+}
+
 ParseResult parseSceneFile(const std::string& path, const FileReferencePolicy& policy,
                            const SceneOverrides& overrides, const SceneLimits& limits,
                            SceneUse use) {
+    if (isPbrtSceneFile(path))
+        return pbrt::parsePbrtSceneFile(path, policy, overrides, limits, use);
     return Parser(path, policy, overrides, limits, use, ParseMode::Build).parse();
 }
 
 std::vector<std::string> listSceneFiles(const std::string& path,
                                         const FileReferencePolicy& policy) {
+    if (isPbrtSceneFile(path)) return pbrt::listPbrtSceneFiles(path, policy);
     return Parser(path, policy, {}, {}, SceneUse::Check, ParseMode::ListFiles).parse().dependencies;
 }
 
 std::shared_ptr<Scene> loadScene(const std::string& path, const FileReferencePolicy& policy,
                                  const SceneOverrides& overrides, const SceneLimits& limits,
                                  SceneUse use) {
+    if (isPbrtSceneFile(path))
+        return std::static_pointer_cast<Scene>(
+            pbrt::parsePbrtSceneFile(path, policy, overrides, limits, use).root);
     Parser parser(path, policy, overrides, limits, use, ParseMode::Build);
     ParseResult result = parser.parse();
     if (result.root->kind() != ObjectKind::Scene)

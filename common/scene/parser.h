@@ -41,10 +41,26 @@ struct SceneLimits {
 // them) but cannot trace rays.
 enum class SceneUse { Render, Check };
 
-// Parses a scene or test file; throws Error("file:line:col: problem") on any problem. The policy
-// says which files the scene may name (any, by default). With a confinement root (a farm job's
-// bundle), messages name files relative to the root, so they never show where it lies. A scene
-// beyond the limits throws ResourceLimitError ("file:line (mesh ...): ...").
+// How a scene file is named in messages and which files it may name, for both scene formats.
+struct SceneFileNaming {
+    std::string path;            // where the file is read from
+    std::string name;            // as messages name it: inside a confinement root, relative to it
+    FileReferencePolicy policy;  // its confinement root absolute and lexically normal
+    // The message without the confinement root's path, which is where the server keeps the
+    // bundle and none of the user's business.
+    std::string withoutConfinementRoot(std::string message) const;
+};
+// Throws Error when the file lies outside the policy's confinement root.
+SceneFileNaming nameSceneFile(const std::string& path, const FileReferencePolicy& policy);
+
+// Whether a scene file is in pbrt-v4's format (by its extension, .pbrt), not Nori XML.
+bool isPbrtSceneFile(const std::string& path);
+
+// Parses a scene or test file (Nori XML, or pbrt-v4 for a .pbrt file); throws Error("file:line:col:
+// problem") on any problem. The policy says which files the scene may name (any, by default). With
+// a confinement root (a farm job's bundle), messages name files relative to the root, so they never
+// show where it lies. A scene beyond the limits throws ResourceLimitError ("file:line (mesh ...):
+// ...").
 ParseResult parseSceneFile(const std::string& path, const FileReferencePolicy& policy = {},
                            const SceneOverrides& overrides = {}, const SceneLimits& limits = {},
                            SceneUse use = SceneUse::Render);

@@ -198,21 +198,27 @@ TriangleGeometry loopSubdivide(const Eigen::Matrix<float, 3, Eigen::Dynamic>& po
     // neighbours to take weights from and is no part of the surface.
     const Eigen::Index inputCount = positions.cols();
     std::vector<int64_t> renumbered(size_t(inputCount), -1);
-    Faces current(3, faces.cols());
-    uint32_t used = 0;
     for (Eigen::Index f = 0; f < faces.cols(); ++f) {
         for (int k = 0; k < 3; ++k) {
             const uint32_t v = faces(k, f);
             if (v >= uint64_t(inputCount))
                 fail("%s: triangle %d uses vertex %d, but the mesh has %d vertices", source, f, v,
                      inputCount);
-            if (renumbered[v] < 0) renumbered[v] = used++;
-            current(k, f) = uint32_t(renumbered[v]);
+            renumbered[v] = 0;
         }
         if (faces(0, f) == faces(1, f) || faces(1, f) == faces(2, f) || faces(2, f) == faces(0, f))
             fail("%s: triangle %d uses vertex %d twice", source, f,
                  faces(1, f) == faces(2, f) ? faces(1, f) : faces(0, f));
     }
+    uint32_t used = 0;
+    for (int64_t& index : renumbered)
+        if (index == 0)
+            index = used++;
+        else
+            index = -1;
+    Faces current(3, faces.cols());
+    for (Eigen::Index f = 0; f < faces.cols(); ++f)
+        for (int k = 0; k < 3; ++k) current(k, f) = uint32_t(renumbered[faces(k, f)]);
     Positions p(3, used);
     for (Eigen::Index v = 0; v < inputCount; ++v) {
         if (renumbered[size_t(v)] < 0) continue;

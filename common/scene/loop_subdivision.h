@@ -16,13 +16,18 @@ namespace alphorn {
 constexpr uint64_t kMaxLoopSubdivisionTriangles = uint64_t(1) << 24;
 
 // Subdivides the mesh `levels` times (0: no split, but the vertices still go to the limit
-// surface) and returns the limit mesh: positions, normals and faces, no uvs. Vertices no face
-// uses are left out. The weights are pbrt-v4's: an interior vertex of valence n keeps
-// 1 - n*beta of itself and takes beta of each neighbour (beta = 3/16 for n = 3, else 3/(8n)),
-// a boundary vertex 3/4 of itself and 1/8 of each neighbour along the boundary; a new vertex on
-// an interior edge is 3/8 of each end plus 1/8 of each opposite vertex, on a boundary edge the
-// midpoint. The limit position of an interior vertex weighs its neighbours by
-// gamma = 1 / (n + 3/(8 beta)), of a boundary vertex 1/5 each of its two boundary neighbours.
+// surface) and returns the limit mesh: positions, normals and faces, no uvs. Its first vertices
+// are the input's, in their order, moved to the limit (vertices no face uses are left out); the
+// vertices each round adds follow them. The weights are pbrt-v4's: an interior vertex of valence
+// n keeps 1 - n*beta of itself and takes beta of each neighbour (beta = 3/16 for n = 3, else
+// 3/(8n)), a boundary vertex 3/4 of itself and 1/8 of each neighbour along the boundary; a new
+// vertex on an interior edge is 3/8 of each end plus 1/8 of each opposite vertex, on a boundary
+// edge the midpoint. The limit position of an interior vertex weighs its neighbours by
+// gamma = 1 / (n + 3/(8 beta)). A boundary vertex goes to 3/5 of itself plus 1/5 of each
+// boundary neighbour, pbrt-v4's rule: the boundary rules above are those of a cubic B-spline,
+// whose exact limit weights are 1/6, 2/3, 1/6, so boundary vertices land within a fraction of the
+// boundary polygon's second differences of that curve, an error that shrinks fourfold with every
+// level; it is kept so that meshes match pbrt's.
 //
 // Normals follow pbrt-v4's limit tangents, and so its orientation: they point to the side
 // opposite the faces' winding normal (p1 - p0) x (p2 - p0). In pbrt the shading normal decides

@@ -551,17 +551,19 @@ TriangleGeometry readPlyBytes(std::string_view bytes, const std::string& name) {
 TriangleGeometry readPlyFile(const std::string& path, const std::string& name) {
     std::error_code error;
     const auto status = std::filesystem::status(path, error);
-    if (error) fail("%s: cannot open the PLY file: %s", name, error.message());
+    if (status.type() == std::filesystem::file_type::not_found)
+        fail("%s: cannot open: the file does not exist", name);
+    if (error) fail("%s: cannot open: %s", name, error.message());
     if (!std::filesystem::is_regular_file(status))
-        fail("%s: cannot open the PLY file: it is not a regular file", name);
+        fail("%s: cannot open: it is not a regular file", name);
     std::ifstream file(path, std::ios::binary | std::ios::ate);
-    if (!file) fail("%s: cannot open the PLY file: %s", name, std::strerror(errno));
+    if (!file) fail("%s: cannot open: %s", name, std::strerror(errno));
     const std::streamoff size = file.tellg();
     file.seekg(0);
     std::string bytes(size > 0 ? static_cast<size_t>(size) : 0, '\0');
     file.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     if (static_cast<size_t>(file.gcount()) != bytes.size())
-        fail("%s: cannot read the PLY file: it changed while being read", name);
+        fail("%s: cannot read: the file changed while being read", name);
     return readPlyBytes(bytes, name);
 }
 

@@ -485,11 +485,11 @@ bool isGzip(std::string_view bytes) {
            static_cast<unsigned char>(bytes[1]) == 0x8b;
 }
 
-// The inflated content of gzip data (one member or several in a row), within the cap.
-std::string inflateGzip(std::string_view bytes, const std::string& name) {
-    const uint64_t cap =
-        std::min<uint64_t>(kMaxPlyInflatedBytes,
-                           uint64_t(bytes.size()) * kMaxPlyInflationRatio + kPlyInflationAllowance);
+// Inflates gzip data (one member or several in a row) through a small buffer, handing each
+// piece to `consume`, and refuses it as soon as it goes beyond `cap` bytes. Returns the size.
+template <typename Consume>
+uint64_t inflateGzip(std::string_view bytes, const std::string& name, uint64_t cap,
+                     Consume&& consume) {
     z_stream stream{};
     // 16 + MAX_WBITS: deflate data in a gzip header and trailer.
     if (inflateInit2(&stream, 16 + MAX_WBITS) != Z_OK)
@@ -498,29 +498,26 @@ std::string inflateGzip(std::string_view bytes, const std::string& name) {
         z_stream& stream;
         ~End() { inflateEnd(&stream); }
     } end{stream};
-    std::string out;
+    std::vector<unsigned char> buffer(1 << 18);
     uint64_t consumed = 0, produced = 0;
     while (true) {
-        if (produced == out.size()) {
-            if (out.size() >= cap)
-                fail(
-                    "%s: the gzip-compressed file inflates to more than %d bytes, the most "
-                    "allowed for a file of %d bytes (%d times its size plus %d MiB, and at most "
-                    "%d GiB)",
-                    name, cap, bytes.size(), kMaxPlyInflationRatio, kPlyInflationAllowance >> 20,
-                    kMaxPlyInflatedBytes >> 30);
-            // Grown as it fills: the size the gzip trailer claims is not to be trusted.
-            out.resize(std::min<uint64_t>(cap, std::max<uint64_t>(2 * out.size(), 1u << 20)));
-        }
         constexpr uint64_t kStep = uint64_t(1) << 30;  // what one zlib call takes at most
         stream.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(bytes.data() + consumed));
         stream.avail_in = static_cast<uInt>(std::min<uint64_t>(bytes.size() - consumed, kStep));
-        stream.next_out = reinterpret_cast<Bytef*>(out.data() + produced);
-        stream.avail_out = static_cast<uInt>(std::min<uint64_t>(out.size() - produced, kStep));
-        const uInt inBefore = stream.avail_in, outBefore = stream.avail_out;
+        stream.next_out = buffer.data();
+        stream.avail_out = static_cast<uInt>(buffer.size());
+        const uInt inBefore = stream.avail_in;
         const int status = inflate(&stream, Z_NO_FLUSH);
         consumed += inBefore - stream.avail_in;
-        produced += outBefore - stream.avail_out;
+        const size_t piece = buffer.size() - stream.avail_out;
+        produced += piece;
+        if (produced > cap)
+            fail(
+                "%s: the gzip-compressed file inflates to more than %d bytes, the most allowed "
+                "for a file of %d bytes (%d times its size plus %d MiB, and at most %d GiB)",
+                name, cap, bytes.size(), kMaxPlyInflationRatio, kPlyInflationAllowance >> 20,
+                kMaxPlyInflatedBytes >> 30);
+        consume(reinterpret_cast<const char*>(buffer.data()), piece);
         if (status == Z_STREAM_END) {
             // Another gzip member may follow: concatenated gzip files are one gzip file.
             if (!isGzip(bytes.substr(consumed))) break;
@@ -534,7 +531,20 @@ std::string inflateGzip(std::string_view bytes, const std::string& name) {
         fail("%s: the gzip-compressed data is corrupt (zlib: %s)", name,
              stream.msg ? stream.msg : "error");
     }
-    out.resize(produced);
+    return produced;
+}
+
+// The inflated content of gzip data, within the cap. It is inflated twice, first only to be
+// measured: a file beyond the cap is refused without memory taken for it, and the content is
+// then written once into memory of its exact size.
+std::string inflated(std::string_view bytes, const std::string& name) {
+    const uint64_t cap =
+        std::min<uint64_t>(kMaxPlyInflatedBytes,
+                           uint64_t(bytes.size()) * kMaxPlyInflationRatio + kPlyInflationAllowance);
+    const uint64_t size = inflateGzip(bytes, name, cap, [](const char*, size_t) {});
+    std::string out;
+    out.reserve(size);
+    inflateGzip(bytes, name, size, [&](const char* data, size_t n) { out.append(data, n); });
     return out;
 }
 
@@ -542,8 +552,8 @@ std::string inflateGzip(std::string_view bytes, const std::string& name) {
 
 TriangleGeometry readPlyBytes(std::string_view bytes, const std::string& name) {
     if (isGzip(bytes)) {
-        const std::string inflated = inflateGzip(bytes, name);
-        return readPlyData(inflated, name);
+        const std::string content = inflated(bytes, name);
+        return readPlyData(content, name);
     }
     return readPlyData(bytes, name);
 }

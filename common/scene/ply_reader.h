@@ -17,10 +17,11 @@
 
 namespace alphorn {
 
-// A gzip-compressed file is inflated to at most kMaxPlyInflationRatio times its own size plus
+// A gzip-compressed file may inflate to at most kMaxPlyInflationRatio times its own size plus
 // kPlyInflationAllowance, and never beyond kMaxPlyInflatedBytes: mesh data compresses by a few
 // times (binary floats by less than 2), while a crafted file (a "zip bomb") inflates by up to
-// about 1000 times, and would otherwise take all memory before its content could be checked.
+// about 1000 times. Its size is measured by inflating it once without keeping anything, so a
+// file beyond the cap is refused without taking memory for it.
 constexpr uint64_t kMaxPlyInflationRatio = 64;
 constexpr uint64_t kPlyInflationAllowance = uint64_t(64) << 20;  // 64 MiB
 constexpr uint64_t kMaxPlyInflatedBytes = uint64_t(4) << 30;     // 4 GiB

@@ -1,8 +1,10 @@
 #include "common/scene/ply_reader.h"
 
 #include "common/core/error.h"
+#include "common/scene/loop_subdivision.h"
 #include "common/scene/parser.h"
 #include "common/scene/scene.h"
+#include "tests/support/source_tree.h"
 
 #include <absl/strings/str_format.h>
 
@@ -378,6 +380,27 @@ TEST_F(PlyFiles, APlyMeshNamesItsFileInErrors) {
         EXPECT_NE(message.find("(mesh type=\"ply\"): PLY file bad.ply: "), std::string::npos)
             << message;
     }
+}
+
+// The fuzzer's seeds are valid meshes of each format: the fuzzer starts from files the reader
+// accepts, and mutates from there.
+TEST(PlyFuzzSeeds, AreValidMeshes) {
+    auto seed = [](const std::string& name) {
+        return readPlyFile(sourcePath("fuzz/corpus/ply_reader/") + name, name);
+    };
+    EXPECT_EQ(seed("triangle.ply").faces.cols(), 1);
+    EXPECT_EQ(seed("pentagon_le.ply").faces.cols(), 3);
+    const TriangleGeometry square = seed("square.ply.gz");
+    EXPECT_EQ(square.faces.cols(), 2);
+    EXPECT_EQ(square.positions.col(2), Eigen::Vector3f(1, 1, 0));
+    const TriangleGeometry little = seed("cube_le.ply"), big = seed("cube_be.ply");
+    EXPECT_TRUE(same(little, big));
+    ASSERT_EQ(little.faces.cols(), 12);
+    EXPECT_EQ(little.uvs.cols(), 8);
+    // A closed cube, consistently wound: one level of subdivision adds a vertex per edge.
+    const TriangleGeometry subdivided = loopSubdivide(little.positions, little.faces, 1, "cube");
+    EXPECT_EQ(subdivided.positions.cols(), 8 + 18);
+    EXPECT_EQ(subdivided.faces.cols(), 48);
 }
 
 }  // namespace

@@ -7,7 +7,7 @@ PACKAGES=(
   build-essential cmake ninja-build ccache pkg-config python3 openssl git clang-format
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler libabsl-dev
   libopenexr-dev libeigen3-dev libgtest-dev libgmock-dev libbenchmark-dev
-  libembree-dev libtbb-dev libpugixml-dev libtinyobjloader-dev libpng-dev
+  libembree-dev libtbb-dev libpugixml-dev libtinyobjloader-dev libpng-dev zlib1g-dev
   libboost-dev libsqlite3-dev libzstd-dev libnanoflann-dev libpcg-cpp-dev libcli11-dev libssl-dev
   clang-14 libclang-rt-14-dev
   prometheus-cpp-dev

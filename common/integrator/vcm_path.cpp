@@ -142,12 +142,11 @@ void BidirectionalIntegrator::preprocess(const Scene& scene) {
             "%s renders surfaces only, and the camera sits in a medium: use volume_path_mis or "
             "volumetric_photonmapper for scenes with participating media",
             name);
-    for (const auto& mesh : scene.meshes())
-        if (mesh->hasMediumInterface())
-            fail(
-                "%s renders surfaces only, and %s bounds a medium: use volume_path_mis or "
-                "volumetric_photonmapper for scenes with participating media",
-                name, mesh->source());
+    if (const Mesh* mesh = scene.findMesh([](const Mesh& m) { return m.hasMediumInterface(); }))
+        fail(
+            "%s renders surfaces only, and %s bounds a medium: use volume_path_mis or "
+            "volumetric_photonmapper for scenes with participating media",
+            name, mesh->source());
     if (m_strategies.lightTracing) {
         const std::string refusal = scene.camera()->lightTracingRefusal();
         if (!refusal.empty()) fail("%s traces light to the camera, but %s", name, refusal);

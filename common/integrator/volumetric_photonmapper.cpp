@@ -154,10 +154,9 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
     // Does any light interaction happen in a medium? Without, no volume photon is traced.
     static bool sceneHasMedia(const Scene& scene) {
         if (isParticipating(scene.camera()->medium())) return true;
-        for (const auto& mesh : scene.meshes())
-            if (isParticipating(mesh->insideMedium()) || isParticipating(mesh->outsideMedium()))
-                return true;
-        return false;
+        return scene.findMesh([](const Mesh& mesh) {
+            return isParticipating(mesh.insideMedium()) || isParticipating(mesh.outsideMedium());
+        }) != nullptr;
     }
 
     // The camera path. With TwoRadii, the radiance at the smaller radii too: the same path (the

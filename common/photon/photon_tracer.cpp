@@ -102,8 +102,8 @@ const Medium* startMedium(const Scene& scene, const Ray3f& emitted) {
 class StartMediumCache {
   public:
     explicit StartMediumCache(const Scene& scene) {
-        m_anyBoundary = std::any_of(scene.meshes().begin(), scene.meshes().end(),
-                                    [](const auto& mesh) { return mesh->hasMediumInterface(); });
+        m_anyBoundary =
+            scene.findMesh([](const Mesh& mesh) { return mesh.hasMediumInterface(); }) != nullptr;
         if (!m_anyBoundary) return;
         for (const auto& emitter : scene.emitters()) {
             const auto* light = dynamic_cast<const DeltaPositionLight*>(emitter.get());

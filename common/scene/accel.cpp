@@ -6,6 +6,7 @@
 #include <tbb/task_arena.h>
 
 #include <atomic>
+#include <map>
 
 namespace alphorn {
 
@@ -53,6 +54,10 @@ Accel::~Accel() {
 }
 
 void Accel::release() {
+    for (GroupScene& group : m_groups)
+        if (group.scene) rtcReleaseScene(group.scene);
+    m_groups.clear();
+    m_instances.clear();
     if (m_scene) rtcReleaseScene(m_scene);
     if (m_device) rtcReleaseDevice(m_device);
     m_scene = nullptr;
@@ -83,16 +88,21 @@ uint64_t embreeScenesBuilt() {
     return g_embreeScenesBuilt.load();
 }
 
-void Accel::boundMeshes(const std::vector<std::shared_ptr<Mesh>>& meshes) {
+void Accel::boundMeshes(const std::vector<std::shared_ptr<Mesh>>& meshes,
+                        const std::vector<Instance>& instances) {
     release();
     m_meshes.clear();
     m_bounds.setEmpty();
-    // The meshes build() attaches, in its order, so that the bounds are the same floats.
+    // The meshes and instances build() attaches, in its order, so that the bounds are the same
+    // floats.
     for (const auto& mesh : meshes)
         if (mesh->triangleCount() != 0) m_bounds.extend(mesh->bounds());
+    for (const Instance& instance : instances)
+        if (instance.group().triangleCount() != 0) m_bounds.extend(instance.worldBounds());
 }
 
-void Accel::build(const std::vector<std::shared_ptr<Mesh>>& meshes) {
+void Accel::build(const std::vector<std::shared_ptr<Mesh>>& meshes,
+                  const std::vector<Instance>& instances) {
     ++g_embreeScenesBuilt;
     release();
     m_device = newEmbreeDevice();
@@ -106,6 +116,46 @@ void Accel::build(const std::vector<std::shared_ptr<Mesh>>& meshes) {
         if (id != m_meshes.size()) fail("Embree assigned an unexpected geometry id");
         m_meshes.push_back(mesh.get());
         m_bounds.extend(mesh->bounds());
+    }
+    // Each group's BVH, in the order of the first instance that places it (the map only finds
+    // them), committed as the scene's own: one thread, so it is the same on every machine.
+    std::map<const MeshGroup*, size_t> groupIndex;
+    for (const Instance& instance : instances) {
+        const MeshGroup& group = instance.group();
+        if (group.triangleCount() == 0 || groupIndex.count(&group)) continue;
+        groupIndex.emplace(&group, m_groups.size());
+        ++g_embreeScenesBuilt;
+        GroupScene& built = m_groups.emplace_back();  // released with the Accel from here on
+        built.scene = rtcNewScene(m_device);
+        rtcSetSceneBuildQuality(built.scene, RTC_BUILD_QUALITY_HIGH);
+        for (const auto& mesh : group.meshes()) {
+            if (mesh->triangleCount() == 0) continue;
+            const unsigned id = attachTriangles(m_device, built.scene, *mesh);
+            if (id != built.meshes.size()) fail("Embree assigned an unexpected geometry id");
+            built.meshes.push_back(mesh.get());
+        }
+        commitEmbreeScene(built.scene);
+    }
+    m_instances.reserve(groupIndex.empty() ? 0 : instances.size());
+    for (const Instance& instance : instances) {
+        const auto found = groupIndex.find(&instance.group());
+        if (found == groupIndex.end()) continue;
+        const GroupScene& group = m_groups[found->second];
+        RTCGeometry geometry = rtcNewGeometry(m_device, RTC_GEOMETRY_TYPE_INSTANCE);
+        rtcSetGeometryInstancedScene(geometry, group.scene);
+        // Embree's 3x4 layout, column by column: the linear part's columns, then the translation.
+        const Matrix4f& m = instance.toWorld().matrix();
+        float columns[12];
+        for (int column = 0; column < 4; ++column)
+            for (int row = 0; row < 3; ++row) columns[3 * column + row] = m(row, column);
+        rtcSetGeometryTransform(geometry, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, columns);
+        rtcCommitGeometry(geometry);
+        const unsigned id = rtcAttachGeometry(m_scene, geometry);
+        rtcReleaseGeometry(geometry);
+        if (id != m_meshes.size() + m_instances.size())
+            fail("Embree assigned an unexpected geometry id");
+        m_instances.push_back({&instance, &group.meshes});
+        m_bounds.extend(instance.worldBounds());
     }
     commitEmbreeScene(m_scene);
     RTCError error = rtcGetDeviceError(m_device);
@@ -131,7 +181,7 @@ static RTCRay toEmbree(const Ray3f& ray) {
 
 bool Accel::intersect(const Ray3f& ray, Intersection& its) const {
     ++t_rayCount;
-    if (m_meshes.empty()) return false;
+    if (m_meshes.empty() && m_instances.empty()) return false;
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     RTCRayHit rayhit;
@@ -142,15 +192,23 @@ bool Accel::intersect(const Ray3f& ray, Intersection& its) const {
     rtcIntersect1(m_scene, &context, &rayhit);
     if (rayhit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
     its.t = rayhit.ray.tfar;
-    m_meshes[rayhit.hit.geomID]->fillIntersection(rayhit.hit.primID, rayhit.hit.u, rayhit.hit.v,
-                                                  its);
+    // Embree leaves the ray's direction unscaled in object space, so t is the world distance
+    // parameter for instance hits too.
+    if (rayhit.hit.instID[0] == RTC_INVALID_GEOMETRY_ID) {
+        m_meshes[rayhit.hit.geomID]->fillIntersection(rayhit.hit.primID, rayhit.hit.u, rayhit.hit.v,
+                                                      its);
+    } else {
+        const InstanceHit& hit = m_instances[rayhit.hit.instID[0] - m_meshes.size()];
+        (*hit.meshes)[rayhit.hit.geomID]->fillIntersection(rayhit.hit.primID, rayhit.hit.u,
+                                                           rayhit.hit.v, *hit.instance, its);
+    }
     return true;
 }
 
 bool Accel::occluded(const Ray3f& ray) const {
     ++t_rayCount;
     ++t_shadowRayCount;
-    if (m_meshes.empty()) return false;
+    if (m_meshes.empty() && m_instances.empty()) return false;
     RTCIntersectContext context;
     rtcInitIntersectContext(&context);
     RTCRay r = toEmbree(ray);

@@ -1,7 +1,9 @@
-// Ray intersection through Embree: one BVH over all meshes of a scene.
+// Ray intersection through Embree: one BVH over all meshes of a scene, and the instances of
+// mesh groups (common/scene/instance.h), each an Embree instance of its group's own BVH.
 #pragma once
 
 #include "common/core/ray.h"
+#include "common/scene/instance.h"
 #include "common/scene/mesh.h"
 
 #include <embree3/rtcore.h>
@@ -15,9 +17,15 @@ class Accel {
     Accel& operator=(const Accel&) = delete;
     ~Accel();
 
-    void build(const std::vector<std::shared_ptr<Mesh>>& meshes);
+    // The top-level BVH holds the meshes (world space) and one Embree instance per element of
+    // `instances`; every group they place gets one BVH of its own, built once however many
+    // instances place it. Hits record the instance by address: `instances` must outlive the
+    // Accel and not move.
+    void build(const std::vector<std::shared_ptr<Mesh>>& meshes,
+               const std::vector<Instance>& instances = {});
     // Only the bounds build() gives, without Embree: nothing can be traced.
-    void boundMeshes(const std::vector<std::shared_ptr<Mesh>>& meshes);
+    void boundMeshes(const std::vector<std::shared_ptr<Mesh>>& meshes,
+                     const std::vector<Instance>& instances = {});
     bool intersect(const Ray3f& ray, Intersection& its) const;
     bool occluded(const Ray3f& ray) const;
     const Eigen::AlignedBox3f& bounds() const { return m_bounds; }
@@ -27,13 +35,28 @@ class Accel {
   private:
     void release();
 
+    // A group's BVH and its meshes, indexed by their Embree geometry id in it.
+    struct GroupScene {
+        RTCScene scene = nullptr;
+        std::vector<const Mesh*> meshes;
+    };
+    // What a hit on an instance needs: the instance and its group's meshes.
+    struct InstanceHit {
+        const Instance* instance;
+        const std::vector<const Mesh*>* meshes;
+    };
+
     RTCDevice m_device = nullptr;
     RTCScene m_scene = nullptr;
     std::vector<const Mesh*> m_meshes;  // indexed by Embree geometry id
+    // Indexed by Embree geometry id minus m_meshes.size(): the instances follow the meshes.
+    std::vector<InstanceHit> m_instances;
+    std::vector<GroupScene> m_groups;
     Eigen::AlignedBox3f m_bounds;
 };
 
-// Embree scenes (BVHs) that Accel::build made in this process, for tests of what builds them.
+// Embree scenes (BVHs) that Accel::build made in this process, for tests of what builds them:
+// one for the scene and one for each group its instances place.
 uint64_t embreeScenesBuilt();
 
 // Rays traced by the calling thread since it started; summed by the renderer for Mrays/s.

@@ -6,11 +6,10 @@ namespace alphorn {
 
 bool needsVolumetricPaths(const Scene& scene) {
     if (isParticipating(scene.camera()->medium())) return true;
-    for (const auto& mesh : scene.meshes())
-        if (mesh->bsdf()->isNull() || isParticipating(mesh->insideMedium()) ||
-            isParticipating(mesh->outsideMedium()))
-            return true;
-    return false;
+    return scene.findMesh([](const Mesh& mesh) {
+        return mesh.bsdf()->isNull() || isParticipating(mesh.insideMedium()) ||
+               isParticipating(mesh.outsideMedium());
+    }) != nullptr;
 }
 
 Eigen::AlignedBox3f mediaBounds(const Scene& scene) {
@@ -56,6 +55,27 @@ void checkMediaTrackingWork(const Scene& scene) {
         }
         if (const Medium* outside = mesh->outsideMedium())
             check(outside, boxDiagonal, sceneBox + " (outside " + mesh->source() + ")");
+    }
+    // An instanced mesh's inside medium fills the mesh's box in each placement: the largest of
+    // them is the region checked.
+    for (const auto& group : scene.groups()) {
+        for (const auto& mesh : group->meshes()) {
+            if (const Medium* inside = mesh->insideMedium()) {
+                const Eigen::AlignedBox3f objectBounds = mesh->bounds();
+                double diagonal = 0.0;
+                for (const Instance& instance : scene.instances()) {
+                    if (&instance.group() != group.get()) continue;
+                    const Eigen::AlignedBox3f bounds = instance.boxToWorld(objectBounds);
+                    if (!bounds.isEmpty())
+                        diagonal = std::max(diagonal, double(bounds.diagonal().norm()));
+                }
+                check(inside, diagonal,
+                      "the bounding box of " + mesh->source() + " in object \"" + group->name() +
+                          "\" (its largest placement), which it fills");
+            }
+            if (const Medium* outside = mesh->outsideMedium())
+                check(outside, boxDiagonal, sceneBox + " (outside " + mesh->source() + ")");
+        }
     }
 }
 

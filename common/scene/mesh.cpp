@@ -4,6 +4,7 @@
 #include "common/core/warp.h"
 #include "common/emitter/emitter.h"
 #include "common/medium/medium.h"
+#include "common/scene/instance.h"
 
 #include <absl/strings/str_format.h>
 
@@ -141,9 +142,14 @@ inline bool Mesh::interpolatedNormal(const Corners& c, float u, float v, float w
     return true;
 }
 
-void Mesh::fillIntersection(uint32_t triangle, float u, float v, Intersection& its) const {
-    Corners c;
-    corners(triangle, c);
+Normal3f Mesh::geometricNormal(uint32_t triangle, const Instance& instance) const {
+    return unitGeometricNormal(instance.pointToWorld(m_positions.col(m_faces(0, triangle))),
+                               instance.pointToWorld(m_positions.col(m_faces(1, triangle))),
+                               instance.pointToWorld(m_positions.col(m_faces(2, triangle))));
+}
+
+inline void Mesh::fillFromCorners(const Corners& c, uint32_t triangle, float u, float v,
+                                  Intersection& its) const {
     const float w = 1.0f - u - v;
     its.mesh = this;
     its.triangle = triangle;
@@ -162,6 +168,34 @@ void Mesh::fillIntersection(uint32_t triangle, float u, float v, Intersection& i
     // and normalisation (about 3% of a Cornell box render's CPU time).
     if (m_frameFollowsUvs && frameAlignedWithU(c, shading, its.shFrame)) return;
     its.shFrame = Frame(shading);
+}
+
+void Mesh::fillIntersection(uint32_t triangle, float u, float v, Intersection& its) const {
+    Corners c;
+    corners(triangle, c);
+    its.instance = nullptr;
+    fillFromCorners(c, triangle, u, v, its);
+}
+
+// The corners are placed in world space first and then interpolated, as for the mesh loaded with
+// the instance's transform, rather than the object-space hit transformed: that gives the flat
+// mesh's floats (exactly, where the placement is exact), and the frame follows the world-space
+// dp/du of the placed triangle.
+void Mesh::fillIntersection(uint32_t triangle, float u, float v, const Instance& instance,
+                            Intersection& its) const {
+    Corners c;
+    corners(triangle, c);
+    float positions[3][3], normals[3][3];
+    for (int k = 0; k < 3; ++k) {
+        Eigen::Map<Point3f>{positions[k]} = instance.pointToWorld(c.P(k));
+        c.p[k] = positions[k];
+        if (m_normals.cols() > 0) {
+            Eigen::Map<Normal3f>{normals[k]} = instance.unitNormalToWorld(c.N(k));
+            c.n[k] = normals[k];
+        }
+    }
+    its.instance = &instance;
+    fillFromCorners(c, triangle, u, v, its);
 }
 
 // Builds the frame about normal n whose tangent s points along dp/du, with its bitangent t

@@ -10,10 +10,11 @@ namespace alphorn {
 
 class BSDF;
 class Emitter;
+class Instance;
 class Medium;
 class Mesh;
 
-// A ray-surface hit.
+// A ray-surface hit, in world space (a hit on an instanced mesh too).
 struct Intersection {
     Point3f p = Point3f::Zero();
     float t = Infinity;
@@ -21,6 +22,10 @@ struct Intersection {
     Frame shFrame;  // shading frame (interpolated normal)
     const Mesh* mesh = nullptr;
     uint32_t triangle = 0;
+    // The instance that placed `mesh` (common/scene/instance.h), whose vertices are in object
+    // space; null for a mesh of the scene itself. Everything above is in world space either way:
+    // read the mesh's own arrays only through the functions that take the instance.
+    const Instance* instance = nullptr;
 
     Vector3f toLocal(const Vector3f& d) const { return shFrame.toLocal(d); }
     Vector3f toWorld(const Vector3f& d) const { return shFrame.toWorld(d); }
@@ -59,8 +64,16 @@ class Mesh : public Object {
 
     // The true normal of a triangle, unit length (UnitZ for a degenerate one).
     Normal3f geometricNormal(uint32_t triangle) const;
+    // The same in world space, for the mesh placed by `instance`: the normal of the triangle's
+    // corners placed in world space, as a mesh loaded with the instance's transform has it.
+    Normal3f geometricNormal(uint32_t triangle, const Instance& instance) const;
     // Fills the hit record from a triangle index and barycentrics (u, v) as Embree reports them.
     void fillIntersection(uint32_t triangle, float u, float v, Intersection& its) const;
+    // The same for the mesh placed by `instance` (the barycentrics of its object-space triangle,
+    // which are those of the placed one): the record is in world space, the position, normals
+    // and frame those of the triangle placed flat (common/scene/instance.h).
+    void fillIntersection(uint32_t triangle, float u, float v, const Instance& instance,
+                          Intersection& its) const;
     // Samples a point uniformly by area.
     SurfaceSample sampleSurface(const Point2f& sample) const;
 
@@ -100,6 +113,9 @@ class Mesh : public Object {
         Eigen::Map<const Point2f> T(int k) const { return Eigen::Map<const Point2f>(t[k]); }
     };
     inline void corners(uint32_t triangle, Corners& c) const;
+    // The hit record from the corners (in the space the record is to be in).
+    inline void fillFromCorners(const Corners& c, uint32_t triangle, float u, float v,
+                                Intersection& its) const;
     // The interpolated vertex normal at barycentrics (u, v, w), unit length; false if the mesh
     // has no normals or they cancel there.
     bool interpolatedNormal(const Corners& c, float u, float v, float w, Normal3f& normal) const;
@@ -123,7 +139,7 @@ class Mesh : public Object {
 };
 
 inline Normal3f Intersection::geometricNormal() const {
-    return mesh->geometricNormal(triangle);
+    return instance ? mesh->geometricNormal(triangle, *instance) : mesh->geometricNormal(triangle);
 }
 
 // The most memory a mesh of `triangles` triangles and `vertices` vertices takes once the scene

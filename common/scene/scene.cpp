@@ -38,6 +38,15 @@ void Scene::addChild(const std::shared_ptr<Object>& child, const std::string& na
     }
 }
 
+void Scene::addInstance(std::shared_ptr<MeshGroup> group, const Transform& toWorld) {
+    if (m_activated)
+        fail("%s: an instance of object \"%s\" was added after the scene was built", source(),
+             group ? group->name() : std::string("(null)"));
+    m_instances.emplace_back(group, toWorld);
+    if (m_placedGroups.insert(group.get()).second) m_groups.push_back(group);
+    group->markPlaced();
+}
+
 void Scene::activate() {
     if (!m_camera) fail("the scene has no camera");
     if (!m_integrator) fail("the scene has no integrator");
@@ -61,10 +70,11 @@ void Scene::activate() {
     // Checking the scene needs its bounds (the integrators derive default radii from them), which
     // are those of its meshes; Embree's BVH, the largest part of loading a scene of many
     // meshes, is built only to trace rays.
+    m_activated = true;
     if (m_buildsAcceleration)
-        m_accel.build(m_meshes);
+        m_accel.build(m_meshes, m_instances);
     else
-        m_accel.boundMeshes(m_meshes);
+        m_accel.boundMeshes(m_meshes, m_instances);
     checkMediaTrackingWork(*this);
     m_powerPdf.clear();
     for (const auto& emitter : m_emitters) {
@@ -105,8 +115,15 @@ void Scene::setIntegrator(std::shared_ptr<Integrator> integrator) {
 std::string Scene::toString() const {
     size_t triangles = 0;
     for (const auto& m : m_meshes) triangles += m->triangleCount();
-    return absl::StrFormat("scene: %zu meshes (%zu triangles), %zu emitters, %dx%d pixels",
-                           m_meshes.size(), triangles, m_emitters.size(),
+    std::string instances;
+    if (!m_instances.empty()) {
+        size_t placed = 0;
+        for (const Instance& instance : m_instances) placed += instance.group().triangleCount();
+        instances = absl::StrFormat(", %zu instances of %zu objects (%zu triangles placed)",
+                                    m_instances.size(), m_groups.size(), placed);
+    }
+    return absl::StrFormat("scene: %zu meshes (%zu triangles)%s, %zu emitters, %dx%d pixels",
+                           m_meshes.size(), triangles, instances, m_emitters.size(),
                            m_camera->outputSize().x(), m_camera->outputSize().y());
 }
 

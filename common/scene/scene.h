@@ -7,7 +7,10 @@
 #include "common/integrator/integrator.h"
 #include "common/sampler/sampler.h"
 #include "common/scene/accel.h"
+#include "common/scene/instance.h"
 #include "common/scene/mesh.h"
+
+#include <set>
 
 namespace alphorn {
 
@@ -35,7 +38,29 @@ class Scene : public Object {
     const Integrator* integrator() const { return m_integrator.get(); }
     Integrator* integrator() { return m_integrator.get(); }
     const Sampler* sampler() const { return m_sampler.get(); }
+    // The scene's own meshes, in world space. Instanced meshes are not among them: they are in
+    // object space (see instances(), groups() and findMesh()).
     const std::vector<std::shared_ptr<Mesh>>& meshes() const { return m_meshes; }
+    // Places `group` (its meshes activated, in object space, not given to addChild) in the
+    // scene by `toWorld`; before activate() only. Refuses what Instance refuses, with an Error
+    // naming the group.
+    void addInstance(std::shared_ptr<MeshGroup> group, const Transform& toWorld);
+    // The placements, in the order given, and the distinct groups they place, in the order of
+    // the first placement of each.
+    const std::vector<Instance>& instances() const { return m_instances; }
+    const std::vector<std::shared_ptr<MeshGroup>>& groups() const { return m_groups; }
+    // The first mesh, of the scene's own (in order) and then of the placed groups (in order),
+    // for which `predicate` holds; null when none does. For what asks of every mesh what it
+    // bounds or is (media, null BSDFs), which no transform changes.
+    template <typename Predicate>
+    const Mesh* findMesh(const Predicate& predicate) const {
+        for (const auto& mesh : m_meshes)
+            if (predicate(*mesh)) return mesh.get();
+        for (const auto& group : m_groups)
+            for (const auto& mesh : group->meshes())
+                if (predicate(*mesh)) return mesh.get();
+        return nullptr;
+    }
     const std::vector<std::shared_ptr<Emitter>>& emitters() const { return m_emitters; }
     const Eigen::AlignedBox3f& bounds() const { return m_accel.bounds(); }
     const Accel& accel() const { return m_accel; }
@@ -51,6 +76,11 @@ class Scene : public Object {
 
   private:
     std::vector<std::shared_ptr<Mesh>> m_meshes;
+    // Never moved once activate() built the Accel (hits point into it).
+    std::vector<Instance> m_instances;
+    std::vector<std::shared_ptr<MeshGroup>> m_groups;
+    std::set<const MeshGroup*> m_placedGroups;  // m_groups, to find one (never iterated)
+    bool m_activated = false;
     std::vector<std::shared_ptr<Emitter>> m_emitters;
     std::shared_ptr<Camera> m_camera;
     std::shared_ptr<Integrator> m_integrator;

@@ -11,6 +11,7 @@
 #include <png.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -139,6 +140,102 @@ Image readEXR(const std::string& path) {
     } catch (const std::exception& e) {
         fail("%s: cannot read EXR: %s", path, e.what());
     }
+}
+
+namespace {
+
+// Reads one whitespace-delimited header token of at most `limit` characters; empty at the end of
+// the file or when the token is longer (no real PFM header field is).
+std::string pfmToken(std::istream& in, size_t limit) {
+    std::string token;
+    int c = in.get();
+    while (c != EOF && std::isspace(c)) c = in.get();
+    while (c != EOF && !std::isspace(c)) {
+        if (token.size() == limit) return {};
+        token.push_back(char(c));
+        c = in.get();
+    }
+    // The single whitespace character after the last field, the scale, ends the header.
+    return token;
+}
+
+bool parseDimension(const std::string& text, uint64_t& value) {
+    if (text.empty() || text.size() > 9) return false;
+    value = 0;
+    for (char c : text) {
+        if (c < '0' || c > '9') return false;
+        value = value * 10 + uint64_t(c - '0');
+    }
+    return value > 0;
+}
+
+bool hostIsLittleEndian() {
+    const uint32_t one = 1;
+    unsigned char first;
+    std::memcpy(&first, &one, 1);
+    return first == 1;
+}
+
+}  // namespace
+
+Image readPFM(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) fail("%s: cannot open the PFM file", path);
+    const std::string magic = pfmToken(in, 2);
+    if (magic != "PF" && magic != "Pf")
+        fail("%s: not a PFM file (it must start with \"PF\" or \"Pf\")", path);
+    const int channels = magic == "PF" ? 3 : 1;
+    uint64_t width = 0, height = 0;
+    if (!parseDimension(pfmToken(in, 16), width) || !parseDimension(pfmToken(in, 16), height))
+        fail("%s: the PFM header has no valid positive width and height", path);
+    const std::string scaleText = pfmToken(in, 64);
+    char* end = nullptr;
+    const double scale = scaleText.empty() ? 0.0 : std::strtod(scaleText.c_str(), &end);
+    if (scaleText.empty() || *end != '\0' || !(scale != 0.0) || !std::isfinite(scale))
+        fail("%s: the PFM header's scale (byte order) must be a non-zero number", path);
+    const bool littleEndian = scale < 0.0;
+    const uint64_t rawBytes = width * height * channels * sizeof(float);
+    std::error_code sizeError;
+    const uint64_t fileBytes = std::filesystem::file_size(path, sizeError);
+    checkDeclaredImageSize(path, width, height, rawBytes, sizeError ? 0 : fileBytes);
+    const std::streamoff headerBytes = in.tellg();
+    if (sizeError || headerBytes < 0 || fileBytes - uint64_t(headerBytes) != rawBytes)
+        fail(
+            "%s: the PFM header declares %ux%u pixels (%u bytes) but the file holds %d bytes "
+            "after its header",
+            path, width, height, rawBytes,
+            sizeError || headerBytes < 0 ? int64_t(-1) : int64_t(fileBytes - headerBytes));
+    std::vector<float> values(width * height * channels);
+    if (!in.read(reinterpret_cast<char*>(values.data()), std::streamsize(rawBytes)))
+        fail("%s: cannot read the PFM's pixels", path);
+    if (littleEndian != hostIsLittleEndian())
+        for (float& v : values) {
+            uint32_t bits;
+            std::memcpy(&bits, &v, 4);
+            bits = __builtin_bswap32(bits);
+            std::memcpy(&v, &bits, 4);
+        }
+    Image image(static_cast<int>(width), static_cast<int>(height));
+    for (uint64_t row = 0; row < height; ++row)
+        for (uint64_t x = 0; x < width; ++x) {
+            const float* p = &values[((height - 1 - row) * width + x) * channels];
+            image.set(int(x), int(row), channels == 3 ? Color3f(p[0], p[1], p[2]) : Color3f(p[0]));
+        }
+    return image;
+}
+
+void writePFM(const std::string& path, const Image& image) {
+    writeThroughTemporary(path, "PFM", [&](const std::string& temporary) {
+        std::ofstream out(temporary, std::ios::binary);
+        out << "PF\n"
+            << image.width << " " << image.height << "\n"
+            << (hostIsLittleEndian() ? "-1" : "1") << "\n";
+        for (int row = image.height - 1; row >= 0; --row)
+            out.write(reinterpret_cast<const char*>(&image.rgb[3 * size_t(row) * image.width]),
+                      std::streamsize(3 * sizeof(float) * image.width));
+        out.flush();
+        if (!out) fail("%s: cannot write the PFM file", path);
+    });
 }
 
 namespace {

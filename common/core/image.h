@@ -1,4 +1,5 @@
-// Images in memory, and their files: float RGB OpenEXR for results, 8-bit sRGB PNG for viewing.
+// Images in memory, and their files: float RGB OpenEXR for results, 8-bit sRGB PNG for viewing,
+// and PFM for reading the float maps other renderers use.
 #pragma once
 
 #include "common/core/color.h"
@@ -44,6 +45,12 @@ void writeEXR(const std::string& path, const Image& image);
 std::string encodeEXR(const Image& image);
 // Reads the R, G, B channels of an EXR as float (missing channels are zero).
 Image readEXR(const std::string& path);
+// Reads a Portable Float Map (PFM: "PF" RGB or "Pf" grey, either byte order; rows are stored
+// bottom to top and returned top to bottom, like every other image here). The file must hold
+// exactly the pixels its header declares.
+Image readPFM(const std::string& path);
+// Writes a little-endian RGB PFM (for tests and tools: renders are written as EXR).
+void writePFM(const std::string& path, const Image& image);
 // Writes an 8-bit sRGB PNG of image * 2^exposure, clamped to [0, 1].
 void writePNG(const std::string& path, const Image& image, float exposure = 0.0f);
 // The bytes writePNG writes, in memory.

@@ -8,6 +8,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -185,6 +186,78 @@ TEST(ImageFiles, DeclaredSizesBeyondTheLimitOrTheFilesCompressionAreRefused) {
     EXPECT_THROW(checkDeclaredImageSize("a.exr", 16385, 16384, 2u << 28, 1u << 30), Error);
     EXPECT_NO_THROW(checkDeclaredImageSize("a.png", 100, 100, 1100 * 50, 50));
     EXPECT_THROW(checkDeclaredImageSize("a.png", 100, 100, 1100 * 50 + 1, 50), Error);
+}
+
+// The bytes of one float in the given byte order.
+std::string floatBytes(float v, bool littleEndian) {
+    uint32_t bits;
+    std::memcpy(&bits, &v, 4);
+    std::string out(4, '\0');
+    for (int i = 0; i < 4; ++i) out[littleEndian ? i : 3 - i] = char((bits >> (8 * i)) & 0xff);
+    return out;
+}
+
+// PFM stores rows bottom to top; either byte order (the scale's sign) and grey ("Pf") files read.
+TEST(ImageFiles, PFMRowsByteOrderAndGreyAreRead) {
+    const fs::path directory = freshDirectory("image_files_pfm");
+    for (const bool little : {true, false}) {
+        // A 2x2 RGB map; the file's first row is the image's bottom row.
+        std::string rgb = std::string("PF\n2 2\n") + (little ? "-1.0" : "1.0") + "\n";
+        for (float v : {1.f, 2.f, 3.f, 4.f, 5.f, 6.f, 7.f, 8.f, 9.f, 10.f, 11.f, 12.f})
+            rgb += floatBytes(v, little);
+        std::ofstream(directory / "rgb.pfm", std::ios::binary) << rgb;
+        const Image image = readPFM((directory / "rgb.pfm").string());
+        ASSERT_EQ(image.width, 2);
+        ASSERT_EQ(image.height, 2);
+        EXPECT_TRUE((image.get(0, 1) == Color3f(1.f, 2.f, 3.f)).all())
+            << image.get(0, 1).toString();
+        EXPECT_TRUE((image.get(1, 1) == Color3f(4.f, 5.f, 6.f)).all())
+            << image.get(1, 1).toString();
+        EXPECT_TRUE((image.get(0, 0) == Color3f(7.f, 8.f, 9.f)).all())
+            << image.get(0, 0).toString();
+        EXPECT_TRUE((image.get(1, 0) == Color3f(10.f, 11.f, 12.f)).all())
+            << image.get(1, 0).toString();
+
+        std::string grey = std::string("Pf 3 1 ") + (little ? "-2" : "0.5") + "\n";
+        for (float v : {0.25f, -1.5f, 8.0f}) grey += floatBytes(v, little);
+        std::ofstream(directory / "grey.pfm", std::ios::binary) << grey;
+        const Image g = readPFM((directory / "grey.pfm").string());
+        ASSERT_EQ(g.width, 3);
+        ASSERT_EQ(g.height, 1);
+        EXPECT_TRUE((g.get(1, 0) == Color3f(-1.5f)).all()) << g.get(1, 0).toString();
+        EXPECT_TRUE((g.get(2, 0) == Color3f(8.0f)).all()) << g.get(2, 0).toString();
+    }
+    // writePFM's file reads back as the image it wrote.
+    Image written = noise(5, 3);
+    writePFM((directory / "noise.pfm").string(), written);
+    EXPECT_EQ(readPFM((directory / "noise.pfm").string()).rgb, written.rgb);
+    fs::remove_all(directory);
+}
+
+// A file that does not hold what its header declares is refused, naming the file; so are
+// malformed headers.
+TEST(ImageFiles, MalformedPFMsAreRefused) {
+    const fs::path directory = freshDirectory("image_files_bad_pfm");
+    const std::string path = (directory / "bad.pfm").string();
+    auto expectRefused = [&](const std::string& bytes, const std::string& expected) {
+        std::ofstream(path, std::ios::binary) << bytes;
+        try {
+            readPFM(path);
+            ADD_FAILURE() << "read: " << expected;
+        } catch (const Error& e) {
+            const std::string message = e.what();
+            EXPECT_NE(message.find("bad.pfm: " + expected), std::string::npos) << message;
+        }
+    };
+    const std::string twelve = std::string(12 * 4, '\0');
+    expectRefused("PF\n2 2\n-1\n" + twelve.substr(0, 40), "the PFM header declares 2x2");
+    expectRefused("PF\n2 2\n-1\n" + twelve + "xx", "the PFM header declares 2x2");
+    expectRefused("P6\n2 2\n255\n", "not a PFM file");
+    expectRefused("PF\n-2 2\n-1\n" + twelve, "the PFM header has no valid positive width");
+    expectRefused("PF\n2 2\n0\n" + twelve, "the PFM header's scale");
+    expectRefused("PF\n2 2\nabc\n" + twelve, "the PFM header's scale");
+    expectRefused("PF\n60000 60000\n-1\n" + twelve, "the image is 60000x60000 pixels");
+    fs::remove_all(directory);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // Light sources. Area emitters live on meshes; point, spot and projector lights are
-// delta-position lights. Every emitter samples its own emission so photon mappers can use it.
+// delta-position lights; environment and directional lights sit at infinity (infinite.h). Every
+// emitter samples its own emission so photon mappers can use it.
 #pragma once
 
 #include "common/core/color.h"
@@ -52,6 +53,11 @@ class Emitter : public Object {
                                  const Point2f& directionSample) const = 0;
 
     virtual bool isDelta() const { return false; }
+    // Lights at infinity (environment, directional) have no position: rays that leave the scene
+    // reach them, and their shadow rays never end. They emit photons from a disk as wide as the
+    // scene, so the scene tells them its bounding sphere (setSceneBounds) before asking power().
+    virtual bool isInfinite() const { return false; }
+    virtual void setSceneBounds(const Point3f& /*centre*/, float /*radius*/) {}
     // Area emitters are attached to the mesh that carries them.
     virtual void setMesh(const Mesh* mesh) { m_mesh = mesh; }
     const Mesh* mesh() const { return m_mesh; }

@@ -47,6 +47,25 @@ inline float emitterSamplingPdf(const Scene& scene, const Point3f& origin, const
     return its.mesh->emitter()->pdf(makeEmitterHitQuery(origin, dir, its)) * scene.emitterPdf();
 }
 
+// Radiance arriving along a ray from `origin` along unit direction `dir` that left the scene:
+// the environment lights' (zero without any). With `bsdfPdf` >= 0 (the density of the BSDF or
+// phase sample that chose `dir`), each light's radiance carries the balance heuristic weight of
+// that sample against the light's own sampling, light selection included; negative: full weight.
+inline Color3f escapedRadiance(const Scene& scene, const Point3f& origin, const Vector3f& dir,
+                               float bsdfPdf = -1.0f) {
+    Color3f result(0.0f);
+    for (const Emitter* emitter : scene.environmentEmitters()) {
+        EmitterQueryRecord rec(origin);
+        rec.wi = dir;
+        const Color3f le = emitter->eval(rec);
+        if (le.isBlack()) continue;
+        result += bsdfPdf < 0.0f
+                      ? le
+                      : le * balanceHeuristic(bsdfPdf, emitter->pdf(rec) * scene.emitterPdf());
+    }
+    return result;
+}
+
 // One light sample seen from `ref`: an emitter chosen uniformly (Nori's light selection), then
 // its own sample() of a point on it. Always draws one 1D and one 2D number so sample dimensions
 // stay aligned. `emitter` stays null when nothing usable was sampled.

@@ -1,5 +1,6 @@
 // <integrator type="direct_ems">: direct illumination by emitter sampling (Nori's). Emission
-// seen by the camera plus one next-event estimate from a uniformly chosen emitter. Surfaces with
+// seen by the camera (environment lights included) plus one next-event estimate from a uniformly
+// chosen emitter. Surfaces with
 // only delta lobes (mirror, dielectric) receive no direct light under this strategy.
 #include "common/integrator/direct.h"
 #include "common/integrator/integrator.h"
@@ -13,8 +14,8 @@ class DirectEms : public Integrator {
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,
                const PassData*) const override {
         Intersection its;
-        if (!scene.rayIntersect(ray, its)) return Color3f(0.0f);
         const Vector3f dir = ray.d.normalized();
+        if (!scene.rayIntersect(ray, its)) return escapedRadiance(scene, ray.o, dir);
         Color3f result = emittedRadiance(ray.o, dir, its);
         const BSDF& bsdf = *its.mesh->bsdf();
         if (bsdf.isDiffuse())

@@ -20,7 +20,15 @@ Color3f tracePath(const Scene& scene, Sampler& sampler, const Ray3f& cameraRay, 
     Ray3f ray = cameraRay;
     for (int depth = 0;; ++depth) {
         Intersection its;
-        if (!scene.rayIntersect(ray, its)) break;
+        if (!scene.rayIntersect(ray, its)) {
+            // The ray left the scene: it sees the environment, weighted as an emitter hit is.
+            if (!scene.environmentEmitters().empty() &&
+                !(bsdfPdf >= 0.0f && strategy == DirectLight::EmitterSampling)) {
+                const float misPdf = strategy == DirectLight::MIS ? bsdfPdf : -1.0f;
+                result += throughput * escapedRadiance(scene, ray.o, ray.d.normalized(), misPdf);
+            }
+            break;
+        }
         const Vector3f dir = ray.d.normalized();
         const Color3f le = emittedRadiance(ray.o, dir, its);
         if (!le.isBlack()) {

@@ -91,7 +91,14 @@ class PhotonMapper : public PhotonMappingIntegrator {
         Color3f result(0.0f), smallerResult(0.0f);
         for (;; ++depth) {
             Intersection its;
-            if (!scene.rayIntersect(ray, its)) break;
+            if (!scene.rayIntersect(ray, its)) {
+                // The camera path is delta up to here: the environment it sees counts fully.
+                const Color3f escaped =
+                    throughput * escapedRadiance(scene, ray.o, ray.d.normalized());
+                result += escaped;
+                if constexpr (TwoRadii) smallerResult += escaped;
+                break;
+            }
             const Vector3f dir = ray.d.normalized();
             const Color3f emitted = throughput * emittedRadiance(ray.o, dir, its);
             result += emitted;

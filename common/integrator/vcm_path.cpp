@@ -173,6 +173,11 @@ void BidirectionalIntegrator::preprocess(const Scene& scene) {
     m_lightIndex.clear();
     for (size_t i = 0; i < scene.emitters().size(); ++i) {
         const Emitter* emitter = scene.emitters()[i].get();
+        // Light paths from infinity (a disk of light vertices, connections with no distance)
+        // are not implemented: refused rather than rendered wrong.
+        if (emitter->isInfinite())
+            fail("%s does not support lights at infinity (%s); use path_mis or volume_path_mis",
+                 name, emitter->toString());
         if (!emitter->isDelta() && !emitter->mesh())
             fail("%s supports area emitters and point-like lights only", name);
         m_lightPdf.append(std::max(0.0, double(emitter->power().mean())));

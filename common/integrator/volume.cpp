@@ -74,7 +74,8 @@ Color3f sampleLightThroughMedia(const Scene& scene, Sampler& sampler, const Scat
 
     Color3f result = f * tr * radianceOverPdf / selectionPdf;
     if (mis && !emitter->isDelta()) result *= balanceHeuristic(lRec.pdf * selectionPdf, scatterPdf);
-    if (emitter->isDelta() && v.segment)
+    // Equiangular sampling reaches point-like lights only (not directional ones).
+    if (v.segment && dynamic_cast<const DeltaPositionLight*>(emitter))
         result *= balanceHeuristic(freeFlightPdf(*v.segment, v.t),
                                    equiangularPdf(equiangularFrame(*v.segment, lRec.p), v.t));
     return result;
@@ -146,7 +147,16 @@ Color3f volumePathLi(const Scene& scene, Sampler& sampler, const Ray3f& cameraRa
                 continue;
             }
         }
-        if (!hit) break;
+        if (!hit) {
+            // The ray left the scene (and the media, whose transmittance up to the box they end
+            // at the throughput carries, as the shadow rays' does): it sees the environment,
+            // weighted as an emitter hit is.
+            if (!scene.environmentEmitters().empty())
+                result +=
+                    throughput * escapedRadiance(scene, lastVertex, ray.d,
+                                                 mis && scatterPdf >= 0.0f ? scatterPdf : -1.0f);
+            break;
+        }
 
         const Vector3f dir = ray.d;
         const Color3f le = emittedRadiance(lastVertex, dir, its);

@@ -28,7 +28,7 @@ class VolumePathMis : public Integrator {
         // Only point-like lights gain from it; other scenes draw no extra numbers.
         m_equiangular = false;
         for (const auto& emitter : scene.emitters())
-            m_equiangular |= m_equiangularWanted && emitter->isDelta();
+            m_equiangular |= m_equiangularWanted && emitter->isDelta() && !emitter->isInfinite();
     }
 
     Color3f Li(const Scene& scene, Sampler& sampler, const Ray3f& ray,

@@ -187,6 +187,12 @@ class VolumetricPhotonMapper : public PhotonMappingIntegrator {
             result += throughput * along.atPassRadius;
             if constexpr (TwoRadii) smallerResult += throughput * along.atSmallerRadius;
             throughput *= line.transmittance;
+            if (!hit && !throughput.isBlack()) {
+                // The delta path left the scene (and the media box): the environment counts fully.
+                const Color3f escaped = throughput * escapedRadiance(scene, ray.o, ray.d);
+                result += escaped;
+                if constexpr (TwoRadii) smallerResult += escaped;
+            }
             if (!hit || throughput.isBlack()) break;
 
             const Vector3f dir = ray.d;

@@ -20,8 +20,12 @@ class WhittedIntegrator : public Integrator {
         Ray3f ray = cameraRay;
         while (true) {
             Intersection its;
-            if (!scene.rayIntersect(ray, its)) break;
             const Vector3f dir = ray.d.normalized();
+            if (!scene.rayIntersect(ray, its)) {
+                // Camera and delta rays count every emitter they see, environments too.
+                result += throughput * escapedRadiance(scene, ray.o, dir);
+                break;
+            }
             result += throughput * emittedRadiance(ray.o, dir, its);
 
             const BSDF& bsdf = *its.mesh->bsdf();

@@ -15,6 +15,8 @@ bool needsVolumetricPaths(const Scene& scene) {
 Eigen::AlignedBox3f mediaBounds(const Scene& scene) {
     Eigen::AlignedBox3f box = scene.bounds();
     for (const auto& emitter : scene.emitters()) {
+        // Lights at infinity emit from outside the scene; media do not reach out to them.
+        if (emitter->isInfinite()) continue;
         // An emitted ray starts on the light: its position for point-like lights.
         Ray3f ray;
         emitter->samplePhoton(ray, Point2f(0.5f, 0.5f), Point2f(0.5f, 0.5f));

@@ -75,6 +75,17 @@ void Scene::activate() {
         m_accel.build(m_meshes, m_instances);
     else
         m_accel.boundMeshes(m_meshes, m_instances);
+    // Lights at infinity emit photons through a disk as wide as the scene's bounding sphere, and
+    // need it before they can tell their power.
+    const Eigen::AlignedBox3f& box = bounds();
+    const Point3f centre = box.isEmpty() ? Point3f::Zero() : Point3f(box.center());
+    const float radius = box.isEmpty() ? 0.0f : 0.5f * box.diagonal().norm();
+    m_environmentEmitters.clear();
+    for (const auto& emitter : m_emitters) {
+        if (!emitter->isInfinite()) continue;
+        emitter->setSceneBounds(centre, radius);
+        if (!emitter->isDelta()) m_environmentEmitters.push_back(emitter.get());
+    }
     checkMediaTrackingWork(*this);
     m_powerPdf.clear();
     for (const auto& emitter : m_emitters) {

@@ -62,6 +62,9 @@ class Scene : public Object {
         return nullptr;
     }
     const std::vector<std::shared_ptr<Emitter>>& emitters() const { return m_emitters; }
+    // The lights at infinity a ray that leaves the scene sees (environment lights; directional
+    // lights are delta, seen by no ray), valid after activate().
+    const std::vector<const Emitter*>& environmentEmitters() const { return m_environmentEmitters; }
     const Eigen::AlignedBox3f& bounds() const { return m_accel.bounds(); }
     const Accel& accel() const { return m_accel; }
 
@@ -82,6 +85,7 @@ class Scene : public Object {
     std::set<const MeshGroup*> m_placedGroups;  // m_groups, to find one (never iterated)
     bool m_activated = false;
     std::vector<std::shared_ptr<Emitter>> m_emitters;
+    std::vector<const Emitter*> m_environmentEmitters;
     std::shared_ptr<Camera> m_camera;
     std::shared_ptr<Integrator> m_integrator;
     std::shared_ptr<Sampler> m_sampler;

@@ -689,6 +689,16 @@ class SceneCreator {
         std::shared_ptr<Object> bsdf = create(ObjectKind::BSDF, material.type, list);
         for (auto& [child, name] : children) bsdf->addChild(child, name);
         bsdf->activate();
+        // pbrt-v4's reflective materials shade both sides of a surface; Alphorn's shade the side
+        // their normal faces.
+        static const std::set<std::string> kReflective = {"diffuse", "conductor", "coateddiffuse",
+                                                          "coatedconductor"};
+        if (kReflective.count(material.type)) {
+            std::shared_ptr<Object> both = create(ObjectKind::BSDF, "twosided", props(material));
+            both->addChild(bsdf, "");
+            both->activate();
+            bsdf = both;
+        }
         if (normalMap.empty()) return bsdf;
         // pbrt-v4's normal map: an image whose rgb is (n + 1) / 2 in the shading frame.
         PropertyList image = props(material);
@@ -834,16 +844,24 @@ class SceneCreator {
             } catch (const Error& e) {
                 failAt(shape.location, absl::StrFormat("%s: %s", shape.describe(), e.what()));
             }
-        } else if (shape.type == "sphere") {
-            geometry = tessellateSphere(radius("radius", 1.0f), p.getFloat("zmin", -INFINITY),
-                                        p.getFloat("zmax", INFINITY), p.getFloat("phimax", 360.0f));
-        } else if (shape.type == "disk") {
-            geometry =
-                tessellateDisk(p.getFloat("height", 0.0f), radius("radius", 1.0f),
-                               p.getFloat("innerradius", 0.0f), p.getFloat("phimax", 360.0f));
-        } else if (shape.type == "cylinder") {
-            geometry = tessellateCylinder(radius("radius", 1.0f), p.getFloat("zmin", -1.0f),
-                                          p.getFloat("zmax", 1.0f), p.getFloat("phimax", 360.0f));
+        } else if (shape.type == "sphere" || shape.type == "disk" || shape.type == "cylinder") {
+            try {
+                if (shape.type == "sphere") {
+                    const float r = radius("radius", 1.0f);
+                    geometry = tessellateSphere(r, p.getFloat("zmin", -r), p.getFloat("zmax", r),
+                                                p.getFloat("phimax", 360.0f));
+                } else if (shape.type == "disk") {
+                    geometry = tessellateDisk(p.getFloat("height", 0.0f), radius("radius", 1.0f),
+                                              p.getFloat("innerradius", 0.0f),
+                                              p.getFloat("phimax", 360.0f));
+                } else {
+                    geometry =
+                        tessellateCylinder(radius("radius", 1.0f), p.getFloat("zmin", -1.0f),
+                                           p.getFloat("zmax", 1.0f), p.getFloat("phimax", 360.0f));
+                }
+            } catch (const Error& e) {
+                failAt(shape.location, absl::StrFormat("%s: %s", shape.describe(), e.what()));
+            }
         } else {
             unsupported(shape,
                         "Alphorn reads the shapes trianglemesh, plymesh, loopsubdiv, "

@@ -164,7 +164,7 @@ TEST(PbrtScene, WhatAlphornDoesNotRenderIsRefusedWhereItIsWritten) {
     expectError(
         write(dir, "crop.pbrt",
               "Film \"rgb\" \"float cropwindow\" [0 .5 0 .5]\n" + head + "Shape \"sphere\"\n"),
-        "crop.pbrt:1:13", "\"cropwindow\" (a part of the image) is not supported");
+        "crop.pbrt:1:12", "\"cropwindow\" (a part of the image) is not supported");
     expectError(write(dir, "ortho.pbrt", "Camera \"orthographic\"\nWorldBegin\n"), "ortho.pbrt:1:1",
                 "Alphorn's cameras are perspective");
     expectError(write(dir, "alpha.pbrt", head + "Shape \"sphere\" \"float alpha\" 0.5\n"),
@@ -203,7 +203,7 @@ Include "geometry/part.pbrt"
         listSceneFiles(dir + "/escape.pbrt", policy);
         ADD_FAILURE() << "no error";
     } catch (const Error& e) {
-        EXPECT_NE(std::string(e.what()).find("escape.pbrt:2:1 (Shape \"plymesh\")"),
+        EXPECT_NE(std::string(e.what()).find("escape.pbrt:2:17 (Shape \"plymesh\")"),
                   std::string::npos)
             << e.what();
         EXPECT_NE(std::string(e.what()).find("leaves the scene bundle"), std::string::npos);

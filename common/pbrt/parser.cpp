@@ -3,6 +3,7 @@
 #include "common/core/error.h"
 #include "common/core/warning.h"
 
+#include <absl/strings/str_cat.h>
 #include <absl/strings/str_format.h>
 #include <absl/strings/str_join.h>
 
@@ -228,7 +229,7 @@ class Parser {
     }
 
     void readValues(Parameter& p, const std::vector<Token>& values) {
-        const std::string context = "\"" + p.describe() + "\"";
+        const std::string context = absl::StrCat("\"", p.describe(), "\"");
         const bool numeric = p.type == "integer" || p.type == "float" || p.type == "point2" ||
                              p.type == "vector2" || p.type == "point3" || p.type == "vector3" ||
                              p.type == "normal3" || p.type == "rgb" || p.type == "blackbody";

@@ -257,7 +257,7 @@ Command addSubmitCommand(CLI::App& app) {
     auto spp = std::make_shared<uint32_t>(0);
     CLI::App* sub = app.add_subcommand(
         "submit", "Submit a scene to a render farm (uploads only missing files).");
-    sub->add_option("scene", options->scene, "Nori-format scene file")
+    sub->add_option("scene", options->scene, "Scene file: Nori XML, or pbrt-v4 for a .pbrt file")
         ->required()
         ->check(CLI::ExistingFile);
     auto* passes = sub->add_option("--passes", options->passes,

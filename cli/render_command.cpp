@@ -287,7 +287,7 @@ static int runRender(const RenderOptions& options) {
 Command addRenderCommand(CLI::App& app) {
     auto options = std::make_shared<RenderOptions>();
     CLI::App* sub = app.add_subcommand("render", "Render a scene on this machine (EXR and PNG).");
-    sub->add_option("scene", options->scene, "Nori-format scene file")
+    sub->add_option("scene", options->scene, "Scene file: Nori XML, or pbrt-v4 for a .pbrt file")
         ->required()
         ->check(CLI::ExistingFile);
     sub->add_option("-o,--output", options->output,

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Fuzzes Alphorn's input boundaries with libFuzzer (harnesses in fuzz/, one per target).
 #   tools/fuzz.sh TARGET SECONDS [SEED]   a session on one target, under nice; TARGET is one of
-#                                         scene_parser obj_loader ply_reader bundle_manifest film_codec checkpoint
+#                                         scene_parser pbrt_parser obj_loader ply_reader bundle_manifest film_codec checkpoint
 #   tools/fuzz.sh --smoke                 every target for a fixed number of runs from a fixed
 #                                         seed (ALPHORN_FUZZ_SEED, default 1): the CI stage
 # Both build the fuzz tree first (tools/build.sh fuzz, clang + ASan + UBSan). A session starts
@@ -11,9 +11,9 @@
 # in build-fuzz/artifacts/TARGET/; replay it with build-fuzz/fuzz/fuzz_TARGET FILE.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-TARGETS=(scene_parser obj_loader ply_reader bundle_manifest film_codec checkpoint)
+TARGETS=(scene_parser pbrt_parser obj_loader ply_reader bundle_manifest film_codec checkpoint)
 # Runs per target in the smoke stage: each takes 5-40 s on one core of the CI machine.
-declare -A SMOKE_RUNS=([scene_parser]=8000 [obj_loader]=20000 [ply_reader]=20000
+declare -A SMOKE_RUNS=([scene_parser]=8000 [pbrt_parser]=8000 [obj_loader]=20000 [ply_reader]=20000
                        [bundle_manifest]=300000 [film_codec]=100000 [checkpoint]=30000)
 
 fuzz_target() {  # TARGET SEED WORK_CORPUS LIBFUZZER_OPTIONS...

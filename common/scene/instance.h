@@ -80,6 +80,12 @@ class Instance {
     bool m_translatesOnly = false;
 };
 
+// The memory one more instance takes once the scene is built (its Instance here, Embree's instance
+// geometry and its share of the top-level BVH): bench_instancing_memory measured 617 to 651 bytes
+// resident per instance at 1,000 to 100,000 placements (bench/RESULTS.md); with some margin. For
+// a front end that checks a scene's memory against a limit before building it.
+inline constexpr uint64_t kInstanceMemoryBytes = 768;
+
 // The farthest a placed group's vertex may lie from the origin along any axis: Embree aborts on
 // ray origins beyond about 1.8e18, and rays leave from surface points (the OBJ loader keeps its
 // vertices within the same bound).

@@ -11,6 +11,7 @@
 #include "tests/support/source_tree.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <Eigen/Geometry>
 #include <filesystem>
@@ -160,6 +161,14 @@ TEST(Instancing, IdentityAndDyadicTranslationRenderTheBytesOfTheFlatCopy) {
     settings.passes = 4;
     const FilmBlock a = renderLocal(*flat, settings), b = renderLocal(*instanced, settings);
     EXPECT_TRUE(sameFilm(a, b));
+
+    // Built and rendered on one thread: the same bytes (the group's BVH is a pure function of
+    // its triangles, like the scene's).
+    {
+        tbb::global_control oneThread(tbb::global_control::max_allowed_parallelism, 1);
+        const auto again = makeScene({loadMesh(floor)}, {{group, Transform()}, {group, moved}});
+        EXPECT_TRUE(sameFilm(b, renderLocal(*again, settings)));
+    }
 
     // Not a film of nothing: the octahedra cover pixels the floor alone would light otherwise.
     const auto floorOnly = makeScene({loadMesh(floor)}, {});

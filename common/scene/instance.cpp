@@ -29,6 +29,7 @@ Instance::Instance(std::shared_ptr<MeshGroup> group, const Transform& toWorld)
     if (!m_group) fail("an instance names no object (null)");
     const Matrix4f& m = toWorld.matrix();
     const std::string& name = m_group->name();
+    m_translatesOnly = m.topLeftCorner<3, 3>().isIdentity(0.0f);
     if (!m.allFinite()) fail("the transform of an instance of object \"%s\" is not finite", name);
     if (m(3, 0) != 0.0f || m(3, 1) != 0.0f || m(3, 2) != 0.0f || m(3, 3) != 1.0f)
         fail(
@@ -50,6 +51,7 @@ Instance::Instance(std::shared_ptr<MeshGroup> group, const Transform& toWorld)
 }
 
 Normal3f Instance::unitNormalToWorld(const Normal3f& n) const {
+    if (m_translatesOnly) return n;
     Normal3f world = m_toWorld.applyNormal(n);
     float length = world.norm();
     // Under a tiny or huge scale the squared length leaves the float range though the normal is

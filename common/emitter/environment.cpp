@@ -11,10 +11,10 @@
 //                  +z at the centre of the image, -z at its four corners, +x the middle of the
 //                  right edge, +y the middle of the bottom row; the image must be square
 //   scale        float multiplying the radiance (default 1)
-//   illuminance  optional float: rescales the map (after `scale`) so that a surface facing the
-//                light space's +z, open to the whole upper hemisphere, receives this
-//                illuminance (luminance Y weighted by cos theta over the hemisphere); for a
-//                constant environment that is radiance pi * Y(L)
+//   illuminance  optional float: normalises the map so that a surface facing the light space's
+//                +z, open to the whole upper hemisphere, receives this illuminance (luminance Y
+//                weighted by cos theta over the hemisphere; pi * Y(L) for a constant), times
+//                `scale`, which still multiplies as in pbrt-v4
 //   toWorld      rotation from the light's space to the world (a uniform scale is ignored;
 //                shear or non-uniform scale is refused)
 //   portal       accepted (as a string) and ignored with a warning: pbrt uses it only to sample
@@ -76,11 +76,12 @@ class EnvironmentLight : public InfiniteEmitter {
             const float target = props.getPositiveFloat("illuminance", 1.0f);
             if (!std::isfinite(target))
                 props.fail("\"illuminance\" must be finite, got %g", target);
-            const double current = double(scale) * upperIlluminance();
+            // As in pbrt-v4, `scale` still multiplies: the map alone is normalised.
+            const double current = upperIlluminance();
             if (!(current > 0.0) || !std::isfinite(current))
                 props.fail(
-                    "\"illuminance\": the map (times \"scale\") sends no light to a surface facing "
-                    "+z, so no scale gives it illuminance %g",
+                    "\"illuminance\": the map sends no light to a surface facing +z, so no scale "
+                    "gives it illuminance %g",
                     target);
             scale = float(double(scale) * target / current);
         }

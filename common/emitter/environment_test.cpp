@@ -302,8 +302,8 @@ TEST_F(EnvironmentTest, IlluminanceRescalesTheMap) {
         PropertyList props;
         props.setString("mapping", mapping);
         props.setString("filename", writeMap(mapping + ".exr", map));
-        props.setFloat("scale", 7.0f);  // replaced by the illuminance's scale
-        props.setFloat("illuminance", 3.0f);
+        props.setFloat("scale", 0.5f);  // still multiplies, as in pbrt-v4
+        props.setFloat("illuminance", 6.0f);
         light = create("environment", props);
         Rng rng(13, 0, 0, StreamPurpose::Test);
         stats::RunningStats illuminance;

@@ -288,6 +288,21 @@ TEST_F(InfiniteLightsTest, EnvironmentThroughMedia) {
     EXPECT_GT(mis.mean, 0.1);
 }
 
+// An environment nested in a mesh is refused where it is written.
+TEST_F(InfiniteLightsTest, EnvironmentInAMeshIsRefused) {
+    try {
+        load(kNormals, camera("0,0,4", "0,0,0", 20.0f) +
+                           "<mesh type=\"obj\"><string name=\"filename\" value=\"" + kMeshes +
+                           "cube.obj\"/>\n<emitter type=\"environment\"/></mesh>");
+        ADD_FAILURE() << "accepted";
+    } catch (const Error& e) {
+        const std::string message = e.what();
+        EXPECT_NE(message.find("scene.xml:4:2 (emitter type=\"environment\")"), std::string::npos)
+            << message;
+        EXPECT_NE(message.find("cannot be nested in a <mesh>"), std::string::npos) << message;
+    }
+}
+
 // Bidirectional integrators refuse lights at infinity, naming themselves and the light.
 TEST_F(InfiniteLightsTest, UnsupportedIntegratorsRefuseClearly) {
     for (const char* light :

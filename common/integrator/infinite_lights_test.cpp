@@ -257,7 +257,8 @@ TEST_F(InfiniteLightsTest, ImageEnvironmentStrategiesAgreeAndRaysSeeThePixels) {
 
 // In a purely absorbing medium around the camera, an escaping ray sees the environment times
 // exp(-sigma_a d), d its length up to the box media end at: the meshes' box and the camera, 1%
-// larger (plus 1e-4). Phase sampling and next-event estimation agree in scattering fog.
+// larger (plus 1e-4). Phase sampling, next-event estimation and volume photons agree in
+// scattering fog.
 TEST_F(InfiniteLightsTest, EnvironmentThroughMedia) {
     const std::string light =
         "<emitter type=\"environment\"><color name=\"radiance\" value=\"1.5\"/></emitter>";
@@ -286,6 +287,16 @@ TEST_F(InfiniteLightsTest, EnvironmentThroughMedia) {
     const Estimate mats = imageMean(*fog, 40000, 8);
     EXPECT_NEAR(mis.mean, mats.mean, 5.0 * std::hypot(mis.stderror, mats.stderror));
     EXPECT_GT(mis.mean, 0.1);
+    // Photons from the environment must reach all of the fog, the camera's end of it too (the
+    // disk they start on spans the box media end at, not only the meshes).
+    PropertyList props;
+    props.setInteger("photonCount", 50000);
+    props.setFloat("volumePhotonRadius", 0.15f);
+    props.setBoolean("progressive", true);
+    use(*fog, "volumetric_photonmapper", props);
+    const Estimate photons = photonImageMean(*fog, 24, 1000);
+    EXPECT_NEAR(photons.mean, mis.mean, 5.0 * std::hypot(photons.stderror, mis.stderror));
+    EXPECT_LT(photons.stderror, 0.05 * mis.mean);
 }
 
 // An environment nested in a mesh is refused where it is written.

@@ -66,8 +66,9 @@ void Scene::activate() {
     else
         m_accel.boundMeshes(m_meshes);
     // Lights at infinity emit photons through a disk as wide as the scene's bounding sphere, and
-    // need it before they can tell their power.
-    const Eigen::AlignedBox3f& box = bounds();
+    // need it before they can tell their power. With media, light scatters anywhere in the box
+    // media end at (which holds the camera and the other lights too), so the sphere holds that.
+    const Eigen::AlignedBox3f box = needsVolumetricPaths(*this) ? mediaBounds(*this) : bounds();
     const Point3f centre = box.isEmpty() ? Point3f::Zero() : Point3f(box.center());
     const float radius = box.isEmpty() ? 0.0f : 0.5f * box.diagonal().norm();
     m_environmentEmitters.clear();

@@ -53,6 +53,9 @@ class Scene : public Object {
     void setIntegrator(std::shared_ptr<Integrator> integrator);
 
   private:
+    // Gives lights at infinity the scene's bounding sphere and lists the environments (activate).
+    void placeLightsAtInfinity();
+
     std::vector<std::shared_ptr<Mesh>> m_meshes;
     std::vector<std::shared_ptr<Emitter>> m_emitters;
     std::vector<const Emitter*> m_environmentEmitters;

@@ -299,6 +299,28 @@ TEST_F(InfiniteLightsTest, EnvironmentThroughMedia) {
     EXPECT_LT(photons.stderror, 0.05 * mis.mean);
 }
 
+// The map is among the files a scene names (what the farm client uploads with it), and a
+// missing one is refused there, naming the element.
+TEST_F(InfiniteLightsTest, TheMapIsListedWithTheScenesFiles) {
+    writePFM((m_dir / "sky.pfm").string(), Image(2, 2));
+    const std::string body = camera("0,0,4", "0,0,0", 20.0f) +
+                             "\n<emitter type=\"environment\"><string name=\"filename\" "
+                             "value=\"sky.pfm\"/></emitter>";
+    const std::filesystem::path path = m_dir / "scene.xml";
+    std::ofstream(path) << "<scene>\n" + std::string(kNormals) + "\n" + body + "\n</scene>\n";
+    const std::vector<std::string> files = listSceneFiles(path.string());
+    EXPECT_NE(std::find(files.begin(), files.end(), (m_dir / "sky.pfm").string()), files.end());
+    std::filesystem::remove(m_dir / "sky.pfm");
+    try {
+        listSceneFiles(path.string());
+        ADD_FAILURE() << "a missing map was listed";
+    } catch (const Error& e) {
+        const std::string message = e.what();
+        EXPECT_NE(message.find("scene.xml:4"), std::string::npos) << message;
+        EXPECT_NE(message.find("the environment map"), std::string::npos) << message;
+    }
+}
+
 // An environment nested in a mesh is refused where it is written.
 TEST_F(InfiniteLightsTest, EnvironmentInAMeshIsRefused) {
     try {

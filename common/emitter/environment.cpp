@@ -11,10 +11,10 @@
 //                  +z at the centre of the image, -z at its four corners, +x the middle of the
 //                  right edge, +y the middle of the bottom row; the image must be square
 //   scale        float multiplying the radiance (default 1)
-//   illuminance  optional float: rescales the map (after `scale`) so that a surface facing the
-//                light space's +z, open to the whole upper hemisphere, receives this
-//                illuminance (luminance Y weighted by cos theta over the hemisphere); for a
-//                constant environment that is radiance pi * Y(L)
+//   illuminance  optional float: normalises the map so that a surface facing the light space's
+//                +z, open to the whole upper hemisphere, receives this illuminance (luminance Y
+//                weighted by cos theta over the hemisphere; pi * Y(L) for a constant), times
+//                `scale`, which still multiplies as in pbrt-v4
 //   toWorld      rotation from the light's space to the world (a uniform scale is ignored;
 //                shear or non-uniform scale is refused)
 //   portal       accepted (as a string) and ignored with a warning: pbrt uses it only to sample
@@ -29,6 +29,7 @@
 #include "common/core/image.h"
 #include "common/core/warning.h"
 #include "common/emitter/infinite.h"
+#include "common/emitter/sphere_mapping.h"
 
 #include <absl/strings/ascii.h>
 
@@ -39,56 +40,6 @@ namespace alphorn {
 namespace {
 
 enum class Mapping { Equirect, Octahedral };
-
-// Latitude-longitude: (u, v) in [0, 1]^2 <-> unit light-space direction.
-Point2f equirectFromDirection(const Vector3f& d) {
-    const float theta = std::acos(std::clamp(d.y(), -1.0f, 1.0f));
-    float phi = std::atan2(d.x(), -d.z());
-    if (phi < 0.0f) phi += 2.0f * Pi;
-    return Point2f(phi * Inv2Pi, theta * InvPi);
-}
-
-Vector3f equirectToDirection(const Point2f& uv) {
-    const float theta = uv.y() * Pi, phi = uv.x() * (2.0f * Pi);
-    const float sinTheta = std::sin(theta);
-    return Vector3f(sinTheta * std::sin(phi), std::cos(theta), -sinTheta * std::cos(phi));
-}
-
-// The equal-area octahedral square. The signs of x and y pick the quadrant of the centred image
-// coordinates (2u - 1, 2v - 1); within it, with (a, b) their absolute values, the upper hemisphere
-// fills the diamond a + b <= 1. Points of L1 radius r = a + b map to the circle |z| = 1 - r^2
-// (equal area: the diamond within r covers r^2 of the quadrant's diamond, the cap above |z| a
-// share 1 - |z| of the hemisphere), and the angle around z runs linearly along it, b / r of a
-// right angle from x towards y. The lower hemisphere fills the corner triangles, mirrored across
-// the diamond's edge: (a, b) -> (1 - b, 1 - a).
-Point2f octahedralFromDirection(const Vector3f& d) {
-    const float ax = std::abs(d.x()), ay = std::abs(d.y());
-    const float r = std::sqrt(std::max(0.0f, 1.0f - std::abs(d.z())));
-    // Fraction of the right angle from the x axis towards the y axis.
-    const float fraction = ax == 0.0f && ay == 0.0f ? 0.0f : std::atan2(ay, ax) * (2.0f * InvPi);
-    float b = fraction * r, a = r - b;
-    if (d.z() < 0.0f) {
-        const float upperA = a;
-        a = 1.0f - b;
-        b = 1.0f - upperA;
-    }
-    return Point2f(0.5f * (1.0f + std::copysign(a, d.x())),
-                   0.5f * (1.0f + std::copysign(b, d.y())));
-}
-
-Vector3f octahedralToDirection(const Point2f& uv) {
-    const float x = 2.0f * uv.x() - 1.0f, y = 2.0f * uv.y() - 1.0f;
-    const float a = std::abs(x), b = std::abs(y);
-    const bool upper = a + b <= 1.0f;
-    const float r = upper ? a + b : 2.0f - (a + b);
-    // On the ring, the fraction of the right angle is b / r above and (1 - a) / r below.
-    const float fraction = r > 0.0f ? std::clamp((upper ? b : 1.0f - a) / r, 0.0f, 1.0f) : 0.0f;
-    const float phi = fraction * (0.5f * Pi);
-    const float z = 1.0f - r * r;
-    const float ring = r * std::sqrt(std::max(0.0f, 2.0f - r * r));  // sqrt(1 - z^2)
-    return Vector3f(std::copysign(ring * std::cos(phi), x), std::copysign(ring * std::sin(phi), y),
-                    upper ? z : -z);
-}
 
 }  // namespace
 
@@ -125,11 +76,12 @@ class EnvironmentLight : public InfiniteEmitter {
             const float target = props.getPositiveFloat("illuminance", 1.0f);
             if (!std::isfinite(target))
                 props.fail("\"illuminance\" must be finite, got %g", target);
-            const double current = double(scale) * upperIlluminance();
+            // As in pbrt-v4, `scale` still multiplies: the map alone is normalised.
+            const double current = upperIlluminance();
             if (!(current > 0.0) || !std::isfinite(current))
                 props.fail(
-                    "\"illuminance\": the map (times \"scale\") sends no light to a surface facing "
-                    "+z, so no scale gives it illuminance %g",
+                    "\"illuminance\": the map sends no light to a surface facing +z, so no scale "
+                    "gives it illuminance %g",
                     target);
             scale = float(double(scale) * target / current);
         }
@@ -316,7 +268,8 @@ class EnvironmentLight : public InfiniteEmitter {
         const float uvDensity = m_rows[pixel.y()] * m_columns[pixel.y()][pixel.x()] *
                                 float(m_image.width) * float(m_image.height);
         if (m_mapping == Mapping::Octahedral) return uvDensity * Inv4Pi;
-        const float sinTheta = std::sqrt(std::max(0.0f, 1.0f - d.y() * d.y()));
+        // From x and z, not 1 - y^2: near the poles y rounds to 1 while sin theta is not 0.
+        const float sinTheta = std::sqrt(d.x() * d.x() + d.z() * d.z());
         const float pdf = uvDensity / (2.0f * Pi * Pi * sinTheta);
         return std::isfinite(pdf) ? pdf : 0.0f;
     }

@@ -15,6 +15,13 @@ class InfiniteEmitter : public Emitter {
   public:
     bool isInfinite() const final { return true; }
 
+    // Nested in a mesh, the light would be looked up wherever a ray hits the mesh's surface.
+    void setMesh(const Mesh*) override {
+        fail(
+            "a light at infinity (environment) cannot be nested in a <mesh>; give it in the "
+            "<scene>");
+    }
+
     void setSceneBounds(const Point3f& centre, float radius) override {
         m_centre = centre.allFinite() ? centre : Point3f::Zero();
         // An empty scene has no extent; any positive radius then gives the same (unused) light.

@@ -75,17 +75,7 @@ void Scene::activate() {
         m_accel.build(m_meshes, m_instances);
     else
         m_accel.boundMeshes(m_meshes, m_instances);
-    // Lights at infinity emit photons through a disk as wide as the scene's bounding sphere, and
-    // need it before they can tell their power.
-    const Eigen::AlignedBox3f& box = bounds();
-    const Point3f centre = box.isEmpty() ? Point3f::Zero() : Point3f(box.center());
-    const float radius = box.isEmpty() ? 0.0f : 0.5f * box.diagonal().norm();
-    m_environmentEmitters.clear();
-    for (const auto& emitter : m_emitters) {
-        if (!emitter->isInfinite()) continue;
-        emitter->setSceneBounds(centre, radius);
-        if (!emitter->isDelta()) m_environmentEmitters.push_back(emitter.get());
-    }
+    placeLightsAtInfinity();
     checkMediaTrackingWork(*this);
     m_powerPdf.clear();
     for (const auto& emitter : m_emitters) {
@@ -94,6 +84,24 @@ void Scene::activate() {
     }
     m_powerPdf.normalize();
     m_integrator->preprocess(*this);
+}
+
+void Scene::placeLightsAtInfinity() {
+    m_environmentEmitters.clear();
+    const bool any = std::any_of(m_emitters.begin(), m_emitters.end(),
+                                 [](const auto& emitter) { return emitter->isInfinite(); });
+    if (!any) return;
+    // Lights at infinity emit photons through a disk as wide as the scene's bounding sphere, and
+    // need it before they can tell their power. With media, light scatters anywhere in the box
+    // media end at (which holds the camera and the other lights too), so the sphere holds that.
+    const Eigen::AlignedBox3f box = needsVolumetricPaths(*this) ? mediaBounds(*this) : bounds();
+    const Point3f centre = box.isEmpty() ? Point3f::Zero() : Point3f(box.center());
+    const float radius = box.isEmpty() ? 0.0f : 0.5f * box.diagonal().norm();
+    for (const auto& emitter : m_emitters) {
+        if (!emitter->isInfinite()) continue;
+        emitter->setSceneBounds(centre, radius);
+        if (!emitter->isDelta()) m_environmentEmitters.push_back(emitter.get());
+    }
 }
 
 const Emitter* Scene::sampleEmitter(float& sample, float& pdf) const {

@@ -78,6 +78,9 @@ class Scene : public Object {
     void setIntegrator(std::shared_ptr<Integrator> integrator);
 
   private:
+    // Gives lights at infinity the scene's bounding sphere and lists the environments (activate).
+    void placeLightsAtInfinity();
+
     std::vector<std::shared_ptr<Mesh>> m_meshes;
     // Never moved once activate() built the Accel (hits point into it).
     std::vector<Instance> m_instances;

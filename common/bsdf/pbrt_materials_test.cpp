@@ -71,9 +71,9 @@ TEST(RoughDielectric, WeightsAndEnergy) {
             const Vector3f wi = inside ? below(directionAt(deg)) : directionAt(deg);
             expectWeightIsEvalCosOverPdf(*bsdf, wi, 1500);
             // Energy: reflected plus transmitted flux (radiance weights times eta^2 undo the
-            // radiance scaling) is at most 1. Single-scattering GGX loses some: a few per cent
-            // from outside, more from inside, where microfacets reflect totally towards
-            // directions that the model drops.
+            // radiance scaling) is at most 1. Single-scattering GGX loses some: from outside a
+            // few per cent (14% at 80 degrees, by masking), from inside more (about 20-30%),
+            // where microfacets reflect totally towards directions that the model drops.
             Rng rng(9, 0, 0, StreamPurpose::Test);
             stats::RunningStats flux;
             for (int i = 0; i < 100000; ++i) {
@@ -83,7 +83,7 @@ TEST(RoughDielectric, WeightsAndEnergy) {
                 flux.add(w.r() * rec.eta * rec.eta);
             }
             EXPECT_LE(flux.mean, 1.0 + 5.0 * flux.standardError()) << deg << inside;
-            EXPECT_GT(flux.mean, inside ? 0.6 : 0.9) << deg << inside;
+            EXPECT_GT(flux.mean, inside ? 0.6 : 0.8) << deg << inside;  // loose: a gross loss
         }
 }
 

@@ -23,7 +23,9 @@ namespace alphorn {
 constexpr double kQuadricStepRadians = 0.05;
 
 // As pbrt-v4 reads them: zmin and zmax are put in order and clamped to [-radius, radius], and
-// phimax (degrees) is clamped to [0, 360]. Throws Error for a radius that is not finite and
+// phimax (degrees) is clamped to [0, 360]. The errors name the shape and the parameter as pbrt
+// spells it ("sphere: zmin must be finite, got nan"), for the caller to prefix with where the
+// shape was written. Throws Error for a radius that is not finite and
 // positive, values that are not finite, and a surface of no area (zmin = zmax, phimax = 0).
 TriangleGeometry tessellateSphere(float radius, float zmin, float zmax, float phimaxDegrees);
 

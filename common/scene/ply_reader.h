@@ -27,8 +27,9 @@ constexpr uint64_t kPlyInflationAllowance = uint64_t(64) << 20;  // 64 MiB
 constexpr uint64_t kMaxPlyInflatedBytes = uint64_t(4) << 30;     // 4 GiB
 
 // Reads the PLY file at `path` (gzip-compressed or not, told by its first bytes) into object-space
-// geometry. Throws Error("`name`: problem"), `name` being how messages show the file (the path
-// relative to the scene, say), for a file that cannot be read, a malformed or unsupported
+// geometry. Throws Error("`name`: problem") (or "`name`:LINE: problem" for a header line or ASCII
+// data, "`name` (byte N): problem" for binary data), `name` being how messages show the file
+// (the path relative to the scene, say), for a file that cannot be read, a malformed or unsupported
 // header, data that ends before the header's counts do (checked against the file's size before
 // anything is allocated), a value that does not parse or is not finite, a face of fewer than 3
 // vertices, a vertex index out of range, or a file without faces.

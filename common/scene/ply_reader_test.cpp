@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <filesystem>
@@ -378,6 +379,28 @@ TEST_F(PlyFiles, APlyMeshNamesItsFileInErrors) {
         const std::string message = e.what();
         EXPECT_NE(message.find("s.xml:4"), std::string::npos) << message;
         EXPECT_NE(message.find("(mesh type=\"ply\"): PLY file bad.ply: "), std::string::npos)
+            << message;
+    }
+}
+
+// A scene's PLY files are listed without reading them, and one that cannot be opened is refused
+// at its element.
+TEST_F(PlyFiles, AreListedAmongASceneFiles) {
+    const std::string ply = write("m.ply", "not even a PLY file");
+    const std::string scene = write("s.xml", R"(<scene>
+<integrator type="normals"/>
+<camera type="perspective"/>
+<mesh type="ply"><string name="filename" value="m.ply"/></mesh></scene>)");
+    const std::vector<std::string> files = listSceneFiles(scene);
+    EXPECT_NE(std::find(files.begin(), files.end(), ply), files.end()) << files.size();
+    fs::remove(ply);
+    try {
+        listSceneFiles(scene);
+        ADD_FAILURE();
+    } catch (const Error& e) {
+        const std::string message = e.what();
+        EXPECT_NE(message.find("(mesh type=\"ply\"): cannot open PLY file \"m.ply\""),
+                  std::string::npos)
             << message;
     }
 }

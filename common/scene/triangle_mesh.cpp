@@ -26,6 +26,10 @@ void transformGeometry(TriangleGeometry& geometry, const Transform& toWorld) {
     }
 }
 
+void flipWinding(TriangleGeometry& geometry) {
+    geometry.faces.row(1).swap(geometry.faces.row(2));
+}
+
 void checkGeometry(const TriangleGeometry& geometry, const std::string& source) {
     const Eigen::Index vertices = geometry.positions.cols();
     if (geometry.faces.cols() == 0) fail("%s: the mesh has no triangles", source);

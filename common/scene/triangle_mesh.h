@@ -29,6 +29,13 @@ constexpr float kMaxMeshCoordinate = 1e15f;
 // back to the triangle's own normal there).
 void transformGeometry(TriangleGeometry& geometry, const Transform& toWorld);
 
+// Turns every triangle over (swaps its second and third corners), which reverses its winding
+// normal and leaves the vertex normals alone. A transform that mirrors space (negative
+// determinant) turns the winding normals of the triangles it moves inside out; pbrt keeps the
+// object's front under it (and swaps it under ReverseOrientation), which a front end gets by
+// turning the triangles over where pbrt would flip the normal.
+void flipWinding(TriangleGeometry& geometry);
+
 // Checks geometry before a mesh is built from it and throws Error("`source`: problem") for the
 // first problem: no triangle, a vertex index out of range, a position that is not finite or lies
 // beyond +-kMaxMeshCoordinate, normals or uvs that are neither absent nor one per vertex, or a

@@ -86,6 +86,22 @@ TEST(TriangleMesh, TransformGeometryMovesPointsAndNormals) {
     EXPECT_LT((tiny.normals.col(0) - Eigen::Vector3f(0, 0, 1)).norm(), 1e-6f);
 }
 
+// Turned over, a triangle's winding normal is reversed; its vertices and normals stay.
+TEST(TriangleMesh, FlipWindingReversesTheWindingNormal) {
+    TriangleGeometry g = square();
+    flipWinding(g);
+    for (Eigen::Index f = 0; f < g.faces.cols(); ++f) {
+        const auto& p = g.positions;
+        const Eigen::Vector3f n = (p.col(g.faces(1, f)) - p.col(g.faces(0, f)))
+                                      .cross(p.col(g.faces(2, f)) - p.col(g.faces(0, f)));
+        EXPECT_LT(n.z(), 0.0f);
+    }
+    EXPECT_EQ(g.faces.col(1), Eigen::Vector3<uint32_t>(0, 3, 2));
+    EXPECT_EQ(g.normals, square().normals);
+    flipWinding(g);
+    EXPECT_EQ(g.faces, square().faces);
+}
+
 TEST(TriangleMesh, IsAMeshWithItsSourceAndChildren) {
     auto mesh =
         std::make_shared<TriangleMesh>(square(), "scene.pbrt:7:1 (Shape \"trianglemesh\")", "quad");

@@ -956,8 +956,13 @@ class SceneCreator {
                         group->addMesh(mesh);
             }
             if (group->meshes().empty()) continue;
-            scene.addInstance(group, toTransform(use.toWorld, use.location,
-                                                 "ObjectInstance \"" + use.name + "\""));
+            try {
+                scene.addInstance(group, toTransform(use.toWorld, use.location,
+                                                     "ObjectInstance \"" + use.name + "\""));
+            } catch (const Error& e) {
+                failAt(use.location,
+                       absl::StrFormat("ObjectInstance \"%s\": %s", use.name, e.what()));
+            }
         }
     }
 
@@ -1067,7 +1072,13 @@ class SceneCreator {
                               p.getColor("L", SpectrumKind::Illuminant).value_or(Color3f(1.0f)));
             }
             list.setFloat("scale", scale);
-            if (p.has("illuminance")) list.setFloat("illuminance", p.getFloat("illuminance", 1.0f));
+            if (p.has("illuminance")) {
+                // pbrt-v4 sums an image map's illuminance with half each pixel's solid angle, so
+                // its image maps give twice the illuminance asked for; Alphorn's environment
+                // computes it exactly, and is asked for pbrt's, to render pbrt's image.
+                const float illuminance = p.getFloat("illuminance", 1.0f);
+                list.setFloat("illuminance", filename.empty() ? illuminance : 2.0f * illuminance);
+            }
             ignoreWithWarning(light, "portal",
                               "it only changes how the light is sampled, not the image");
             type = "environment";

@@ -189,7 +189,7 @@ Shape "trianglemesh" "point3 P" [1 0 0  -1 0 0  0 1 0  0 -1 0  0 0 1  0 0 -1]
 // (exact in float, so both place every corner at the same bits).
 TEST(PbrtScene, InstancesRenderTheBytesOfTheSameTrianglesWrittenFlat) {
     const std::string head = R"(
-LookAt 0.5 2 6  0.5 0 -1  0 1 0
+LookAt 1 1.5 3  1 0 -2  0 1 0
 Camera "perspective" "float fov" 45
 Film "rgb" "integer xresolution" 24 "integer yresolution" 16
 Sampler "independent" "integer pixelsamples" 2
@@ -221,7 +221,7 @@ Material "diffuse" "rgb reflectance" [0.6 0.5 0.4]
     const Image image = resolveImage(film, 24, 16);
     int lit = 0;
     for (float v : image.rgb) lit += v > 0.0f;
-    EXPECT_GT(lit, 100);
+    EXPECT_GT(lit, 20);
 }
 
 TEST(PbrtScene, WhatAlphornDoesNotRenderIsRefusedWhereItIsWritten) {

@@ -22,6 +22,9 @@
 //     are exactly what a renderer keeping those sums would hold.
 //
 //   bench_atlas_render compare A.exr B.exr      prints the relative RMSE of A against B
+//   bench_atlas_render crops IMAGE.exr SIZE     prints the image's mean RGB ("all,R,G,B") and each
+//     SIZE x SIZE crop's ("X0,Y0,R,G,B", the last row and column of crops may be smaller): what
+//     bench/peers/agree_pbrt_v4.py compares between renderers
 //   bench_atlas_render average A.exr B.exr OUT.exr   writes the pixelwise mean of A and B
 //   bench_atlas_render difference A.exr B.exr OUT.exr
 //     writes the luminance difference (A - B) / mean of B's luminance, the relative RMSE's
@@ -38,6 +41,8 @@
 #include "common/scene/scene.h"
 
 #include <sys/resource.h>
+
+#include <array>
 
 #include <algorithm>
 #include <chrono>
@@ -297,6 +302,29 @@ int renderMode(int argc, char** argv) {
     return 0;
 }
 
+int cropsMode(const std::string& path, int size) {
+    if (size < 1) usageError("the crop size must be at least 1 pixel");
+    const Image image = readEXR(path);
+    auto mean = [&](int x0, int y0, int x1, int y1) {
+        double sum[3] = {0, 0, 0};
+        for (int y = y0; y < y1; ++y)
+            for (int x = x0; x < x1; ++x)
+                for (int c = 0; c < 3; ++c)
+                    sum[c] += image.rgb[3 * (size_t(y) * image.width + x) + c];
+        const double n = double(x1 - x0) * double(y1 - y0);
+        return std::array<double, 3>{sum[0] / n, sum[1] / n, sum[2] / n};
+    };
+    const auto all = mean(0, 0, image.width, image.height);
+    std::printf("all,%.9g,%.9g,%.9g\n", all[0], all[1], all[2]);
+    for (int y = 0; y < image.height; y += size)
+        for (int x = 0; x < image.width; x += size) {
+            const auto m =
+                mean(x, y, std::min(x + size, image.width), std::min(y + size, image.height));
+            std::printf("%d,%d,%.9g,%.9g,%.9g\n", x, y, m[0], m[1], m[2]);
+        }
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -308,6 +336,7 @@ int main(int argc, char** argv) {
             return 0;
         }
         if (mode == "difference" && argc == 5) return differenceMode(argv[2], argv[3], argv[4]);
+        if (mode == "crops" && argc == 4) return cropsMode(argv[2], std::atoi(argv[3]));
         if (mode == "average" && argc == 5) {
             const Image a = readEXR(argv[2]), b = readEXR(argv[3]);
             if (a.width != b.width || a.height != b.height) usageError("the images differ in size");

@@ -206,9 +206,8 @@ std::optional<Color3f> ParameterList::getColor(const std::string& name, Spectrum
             std::optional<Color3f> named = namedSpectrumRgb(p->strings[0], use);
             if (!named)
                 failAt(p->location,
-                       absl::StrFormat("\"%s\": \"%s\" is not a named spectrum Alphorn knows "
-                                       "(spectrum files are not read either); give an \"rgb\" "
-                                       "value",
+                       absl::StrFormat("\"%s\": \"%s\" is not a named spectrum Alphorn knows; "
+                                       "give an \"rgb\" value",
                                        p->describe(), p->strings[0]));
             color = *named;
         } else {

@@ -1,6 +1,7 @@
 #include "common/pbrt/parser.h"
 
 #include "common/core/error.h"
+#include "common/core/spectrum.h"
 #include "common/core/warning.h"
 
 #include <absl/strings/str_cat.h>
@@ -223,9 +224,37 @@ class Parser {
                 values.push_back(value);
             }
             readValues(p, values);
+            if (p.type == "spectrum" && p.strings.size() == 1 &&
+                !namedSpectrumRgb(p.strings[0], SpectrumUse::Unbounded))
+                readSpectrumFile(p);
             list.add(std::move(p));
         }
         return list;
+    }
+
+    // A spectrum named by a file (pbrt's .spd: wavelength and value pairs, '#' comments) is read
+    // here, through the scene's file policy, so the farm bundles it with the scene; the parameter
+    // then holds its numbers as if they were written inline.
+    void readSpectrumFile(Parameter& p) {
+        const std::string file = p.strings[0];
+        std::string path, text;
+        try {
+            path = m_resolver.resolvePath(file);
+            text = readFile(path, file);
+        } catch (const Error& e) {
+            failAt(p.location, absl::StrFormat("\"%s\": \"%s\" is neither a named spectrum nor a "
+                                               "readable spectrum file: %s",
+                                               p.describe(), file, e.what()));
+        }
+        Tokenizer tokenizer(text, std::make_shared<const std::string>(file));
+        Token token;
+        p.strings.clear();
+        while (tokenizer.next(token))
+            p.numbers.push_back(parseNumber(token, "spectrum file " + file));
+        if (p.numbers.size() < 4 || p.numbers.size() % 2 != 0)
+            failAt(p.location, absl::StrFormat("\"%s\": the spectrum file \"%s\" holds %d numbers, "
+                                               "not (wavelength, value) pairs",
+                                               p.describe(), file, p.numbers.size()));
     }
 
     void readValues(Parameter& p, const std::vector<Token>& values) {

@@ -223,6 +223,28 @@ TEST(PbrtParser, ErrorsNameTheFileLineAndColumn) {
     expectError("ColorSpace \"aces2065-1\"\n", "s.pbrt:1:1", "linear sRGB only");
 }
 
+TEST(PbrtParser, SpectrumFilesAreReadAsTheirNumbers) {
+    const std::string dir = scratch();
+    std::filesystem::create_directories(dir + "/spds");
+    std::ofstream(dir + "/spds/metal.spd") << "# wavelength value\n400 0.2\n500 0.3\n600 0.4\n";
+    std::ofstream(dir + "/spds/odd.spd") << "400 0.2 500\n";
+    const SceneDescription scene = parse(R"(WorldBegin
+Material "conductor" "spectrum eta" "spds/metal.spd" "spectrum k" "metal-Au-k"
+Shape "sphere"
+)",
+                                         dir);
+    const Parameter* eta = scene.materials.at(0).parameters.find("eta");
+    EXPECT_TRUE(eta->strings.empty());
+    EXPECT_EQ(eta->numbers, (std::vector<double>{400, 0.2, 500, 0.3, 600, 0.4}));
+    // A named spectrum stays a name.
+    EXPECT_EQ(scene.materials.at(0).parameters.find("k")->strings.at(0), "metal-Au-k");
+    EXPECT_EQ(scene.includedFiles.size(), 0u);
+    expectError("WorldBegin\nMaterial \"conductor\" \"spectrum eta\" \"spds/odd.spd\"\n",
+                "s.pbrt:2:22", "holds 3 numbers");
+    expectError("WorldBegin\nMaterial \"conductor\" \"spectrum eta\" \"metal-Xx-eta\"\n",
+                "s.pbrt:2:22", "neither a named spectrum nor a readable spectrum file");
+}
+
 TEST(PbrtParser, MotionBlurIsRefused) {
     expectError(R"(WorldBegin
 ActiveTransform EndTime

@@ -47,6 +47,19 @@ bool swapsHandedness(const Eigen::Matrix4d& m) {
     return m.block<3, 3>(0, 0).determinant() < 0.0;
 }
 
+// A mesh's surface area, summed in double before it is activated (it knows its area after).
+double triangleArea(const Mesh& mesh) {
+    double area = 0.0;
+    for (uint32_t t = 0; t < mesh.triangleCount(); ++t) {
+        const auto face = mesh.faces().col(t);
+        const Eigen::Vector3d a = mesh.positions().col(face(0)).cast<double>(),
+                              b = mesh.positions().col(face(1)).cast<double>(),
+                              c = mesh.positions().col(face(2)).cast<double>();
+        area += 0.5 * (b - a).cross(c - a).norm();
+    }
+    return area;
+}
+
 // Refuses the first parameter the creation did not read: pbrt-v4 refuses a parameter it does
 // not use, and one Alphorn does not translate would change the image without a word.
 void failIfUnused(const Entity& entity) {
@@ -902,7 +915,7 @@ class SceneCreator {
         mesh->addChild(shapeMaterial(shape), "");
         if (shape.areaLight) {
             if (inWorld)
-                mesh->addChild(areaLight(*shape.areaLight, shape), "");
+                mesh->addChild(areaLight(*shape.areaLight, *mesh), "");
             else
                 warn(
                     "%s: the area light of a shape inside ObjectBegin is ignored (as pbrt-v4 "
@@ -968,7 +981,7 @@ class SceneCreator {
 
     // ---- lights
 
-    std::shared_ptr<Object> areaLight(const Entity& light, const ShapeEntity& shape) {
+    std::shared_ptr<Object> areaLight(const Entity& light, const Mesh& mesh) {
         if (light.type != "diffuse") unsupported(light, "Alphorn's area lights are diffuse");
         const ParameterList& p = light.parameters;
         if (p.has("filename"))
@@ -978,14 +991,21 @@ class SceneCreator {
         const Color3f radiance =
             p.getColor("L", SpectrumKind::Illuminant).value_or(Color3f(1.0f)) * scale;
         const bool twoSided = p.getBool("twosided", false);
-        if (p.has("power"))
-            failAt(p.find("power")->location,
-                   light.describe() + ": an area light's \"power\" is not supported yet; give L");
+        Color3f emitted = radiance;
+        if (p.has("power")) {
+            // pbrt-v4 scales L (normalised to luminance 1) so that the light emits `power`:
+            // power = L scale pi area (2 if two-sided).
+            const float power = p.getFloat("power", 0.0f);
+            const double area = triangleArea(mesh);
+            if (!(power >= 0.0f) || !(area > 0.0))
+                failAt(p.find("power")->location,
+                       light.describe() + ": \"power\" needs a power >= 0 and a shape of area > 0");
+            emitted = radiance * float(power / ((twoSided ? 2.0 : 1.0) * M_PI * area));
+        }
         failIfUnused(light);
         PropertyList list = props(light);
-        list.setColor("radiance", radiance);
+        list.setColor("radiance", emitted);
         if (twoSided) list.setBoolean("twoSided", true);
-        (void)shape;
         return create(ObjectKind::Emitter, "area", list);
     }
 

@@ -224,6 +224,30 @@ Material "diffuse" "rgb reflectance" [0.6 0.5 0.4]
     EXPECT_GT(lit, 20);
 }
 
+// pbrt-v4's area light "power": L is scaled so that the shape emits that flux, pi L area (twice
+// for a two-sided light); the light's colour is kept.
+TEST(PbrtScene, AreaLightPowerSetsTheFlux) {
+    const std::string dir = scratch();
+    auto scene = loadScene(write(dir, "power.pbrt", R"(Camera "perspective"
+WorldBegin
+AttributeBegin
+  AreaLightSource "diffuse" "rgb L" [1 0.5 0.25] "float power" 10
+  Shape "trianglemesh" "point3 P" [0 0 0  2 0 0  2 2 0  0 2 0] "integer indices" [0 1 2 0 2 3]
+AttributeEnd
+AttributeBegin
+  AreaLightSource "diffuse" "rgb L" [1 1 1] "float power" 10 "bool twosided" true
+  Translate 0 0 5
+  Shape "disk" "float radius" 1
+AttributeEnd
+)"));
+    ASSERT_EQ(scene->emitters().size(), 2u);
+    const Color3f quad = scene->emitters()[0]->power(), disk = scene->emitters()[1]->power();
+    EXPECT_NEAR(quad.r(), 10.0f, 1e-4f);
+    EXPECT_NEAR(quad.g(), 5.0f, 1e-4f);
+    EXPECT_NEAR(quad.b(), 2.5f, 1e-4f);
+    EXPECT_NEAR(disk.g(), 10.0f, 1e-4f);
+}
+
 TEST(PbrtScene, WhatAlphornDoesNotRenderIsRefusedWhereItIsWritten) {
     const std::string dir = scratch();
     const std::string head = "Camera \"perspective\"\nWorldBegin\n";

@@ -205,9 +205,9 @@ class Parser {
                 failAt(token.location,
                        absl::StrFormat("\"%s\": unknown parameter type \"%s\" (types: %s)",
                                        declaration, type, absl::StrJoin(kParameterTypes, ", ")));
-            if (list.has(name))
-                failAt(token.location,
-                       absl::StrFormat("parameter \"%s\" is given more than once", name));
+            // pbrt-v4 reads the first of repeated parameters (and the public corpus repeats some),
+            // so the later ones are read, checked and dropped, with a warning.
+            const bool repeated = list.has(name);
             std::vector<Token> values;
             Token value = expectToken(token, "a value");
             if (value.text == "[") {
@@ -227,7 +227,13 @@ class Parser {
             if (p.type == "spectrum" && p.strings.size() == 1 &&
                 !namedSpectrumRgb(p.strings[0], SpectrumUse::Unbounded))
                 readSpectrumFile(p);
-            list.add(std::move(p));
+            if (repeated)
+                warn(
+                    "%s: parameter \"%s\" is given more than once; the first value is used, as "
+                    "pbrt-v4 uses it",
+                    token.location.toString(), name);
+            else
+                list.add(std::move(p));
         }
         return list;
     }

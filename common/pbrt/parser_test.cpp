@@ -200,8 +200,6 @@ TEST(PbrtParser, ErrorsNameTheFileLineAndColumn) {
                 "\"nan\" is not a finite number");
     expectError("WorldBegin\nShape \"sphere\" \"integer n\" 1.5\n", "s.pbrt:2:28",
                 "is not an integer");
-    expectError("WorldBegin\nShape \"sphere\" \"float r\" 1 \"float r\" 2\n", "s.pbrt:2:28",
-                "given more than once");
     expectError("WorldBegin\n  Shpae \"sphere\"\n", "s.pbrt:2:3",
                 "unknown directive \"Shpae\"; did you mean Shape?");
     expectError("Shape \"sphere\"\n", "s.pbrt:1:1", "only allowed after WorldBegin");
@@ -243,6 +241,17 @@ Shape "sphere"
                 "s.pbrt:2:22", "holds 3 numbers");
     expectError("WorldBegin\nMaterial \"conductor\" \"spectrum eta\" \"metal-Xx-eta\"\n",
                 "s.pbrt:2:22", "neither a named spectrum nor a readable spectrum file");
+}
+
+// pbrt-v4 reads the first of repeated parameters; so does Alphorn, with a warning.
+TEST(PbrtParser, ARepeatedParameterKeepsItsFirstValue) {
+    const SceneDescription scene =
+        parse("WorldBegin\nShape \"sphere\" \"float radius\" 1 \"float radius\" 2\n");
+    EXPECT_EQ(scene.shapes.at(0).parameters.getFloat("radius", 0), 1.0f);
+    EXPECT_EQ(scene.shapes.at(0).parameters.all().size(), 1u);
+    // The repeat is still checked.
+    expectError("WorldBegin\nShape \"sphere\" \"float r\" 1 \"float r\" [nan]\n", "s.pbrt:2:39",
+                "is not a finite number");
 }
 
 TEST(PbrtParser, MotionBlurIsRefused) {

@@ -55,7 +55,8 @@ int main(int argc, char** argv) {
     using namespace alphorn::cli;
     CLI::App app{
         "Alphorn: a physically based renderer for fog, stage light and caustics, and a render farm "
-        "that gives the same bytes on one machine or many. Scenes are Nori XML files, or pbrt-v4 files (.pbrt)."};
+        "that gives the same bytes on one machine or many. Scenes are Nori XML files, or pbrt-v4 "
+        "files (.pbrt)."};
     app.require_subcommand(1);
     app.set_version_flag("--version", std::string("alphorn ") + ALPHORN_VERSION + " (engine " +
                                           alphorn::farm::engineFingerprint() + ")");

@@ -2,6 +2,8 @@
 // reads by path, and silencing of the loader's warnings (millions of them slow a session down).
 #pragma once
 
+#include "common/scene/accel.h"
+
 #include <unistd.h>
 #include <cstdint>
 #include <cstdlib>
@@ -47,6 +49,20 @@ inline void silenceWarnings() {
     std::cerr.rdbuf(devNull.rdbuf());
 }
 
+// Runs a built mesh through what rendering does with one: Embree's BVH over it, a ray at it from
+// outside its bounds, and a point sampled on it (when it has area).
+inline void traceAndSample(const std::shared_ptr<Mesh>& mesh) {
+    Accel accel;
+    accel.build({mesh});
+    const Eigen::AlignedBox3f box = mesh->bounds();
+    const Point3f target = box.center();
+    const Point3f origin = target + Vector3f(0.3f, 0.7f, 1.0f) * (box.diagonal().norm() + 1.0f);
+    Ray3f ray(origin, (target - origin).normalized());
+    Intersection its;
+    accel.intersect(ray, its);
+    if (mesh->surfaceArea() > 0.0f) mesh->sampleSurface(Point2f(0.37f, 0.61f));
+}
+
 }  // namespace alphorn::fuzz
 
 namespace alphorn::fuzz {
@@ -75,5 +91,4 @@ inline constexpr const char* kCheckpointOwner = "job 1";
 inline CheckpointShape checkpointShapeFromHeader(const uint8_t* header) {
     return {1 + header[0] % 16, 1 + header[1] % 16, header[2], (header[3] & 1) != 0};
 }
-
 }  // namespace alphorn::fuzz

@@ -4,7 +4,6 @@
 // attribute, and a small one is also Loop-subdivided once, which walks its connectivity.
 #include "common/scene/ply_reader.h"
 #include "common/core/error.h"
-#include "common/scene/accel.h"
 #include "common/scene/loop_subdivision.h"
 #include "common/scene/triangle_mesh.h"
 #include "fuzz/fuzz_support.h"
@@ -37,14 +36,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     } catch (const Error&) {
         return 0;
     }
-    Accel accel;
-    accel.build({mesh});
-    const Eigen::AlignedBox3f box = mesh->bounds();
-    const Point3f target = box.center();
-    const Point3f origin = target + Vector3f(0.3f, 0.7f, 1.0f) * (box.diagonal().norm() + 1.0f);
-    Ray3f ray(origin, (target - origin).normalized());
-    Intersection its;
-    accel.intersect(ray, its);
-    if (mesh->surfaceArea() > 0.0f) mesh->sampleSurface(Point2f(0.37f, 0.61f));
+    fuzz::traceAndSample(mesh);
     return 0;
 }

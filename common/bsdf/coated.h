@@ -82,11 +82,7 @@ class Coated : public BSDF {
         // The coat's reflect-or-enter choice needs a third number (see lobes::hashToUnit).
         const auto s = layered(rec).sample(rec.wi, lobes::hashToUnit(sample), sample, seed(rec));
         if (!s || !(s->pdf > 0.0f)) return Color3f(0.0f);
-        rec.wo = s->wo;
-        rec.eta = 1.0f;
-        rec.measure = s->specular ? Measure::Discrete : Measure::SolidAngle;
-        const Color3f weight = s->f * std::abs(s->wo.z()) / s->pdf;
-        return weight.allFinite() ? weight : Color3f(0.0f);
+        return lobes::recordSample(rec, *s, 1.0f);
     }
 
     // Lights are sampled unless every part is a delta (a smooth coat on a smooth conductor with

@@ -81,11 +81,7 @@ class Conductor : public BSDF {
         const lobes::Conductor conductor = lobe(rec);
         const auto s = conductor.sample(rec.wi, 0.0f, sample);
         if (!s || !(s->pdf > 0.0f)) return Color3f(0.0f);
-        rec.wo = s->wo;
-        rec.eta = 1.0f;
-        rec.measure = s->specular ? Measure::Discrete : Measure::SolidAngle;
-        const Color3f weight = s->f * std::abs(s->wo.z()) / s->pdf;
-        return weight.allFinite() ? weight : Color3f(0.0f);
+        return lobes::recordSample(rec, *s, 1.0f);
     }
 
     bool isDiffuse() const override { return m_roughness.mayBeRough(); }

@@ -119,11 +119,7 @@ class Dielectric : public BSDF {
         const float uc = lobes::hashToUnit(sample);
         const auto s = d.sample(rec.wi, uc, sample, lobes::Transport::Radiance);
         if (!s || !(s->pdf > 0.0f)) return Color3f(0.0f);
-        rec.wo = s->wo;
-        rec.eta = s->reflection ? 1.0f : s->eta;
-        rec.measure = s->specular ? Measure::Discrete : Measure::SolidAngle;
-        const Color3f weight = s->f * std::abs(s->wo.z()) / s->pdf;
-        return weight.allFinite() ? weight : Color3f(0.0f);
+        return lobes::recordSample(rec, *s, s->reflection ? 1.0f : s->eta);
     }
 
     static Vector3f reflect(const Vector3f& wi) { return Vector3f(-wi.x(), -wi.y(), wi.z()); }

@@ -11,6 +11,7 @@
 // in the local frame (normal +z).
 #pragma once
 
+#include "common/bsdf/bsdf.h"
 #include "common/bsdf/fresnel.h"
 #include "common/bsdf/microfacet_distribution.h"
 #include "common/core/color.h"
@@ -44,6 +45,16 @@ struct Sample {
     bool specular = false;
     bool reflection = true;
 };
+
+// Writes a lobe's sample into the query (wo, eta, measure) and returns sample()'s weight, f
+// |cos theta_o| / pdf, or zero where that is not finite. `eta` is the relative index along wo.
+inline Color3f recordSample(BSDFQueryRecord& rec, const Sample& s, float eta) {
+    rec.wo = s.wo;
+    rec.eta = eta;
+    rec.measure = s.specular ? Measure::Discrete : Measure::SolidAngle;
+    const Color3f weight = s.f * std::abs(s.wo.z()) / s.pdf;
+    return weight.allFinite() ? weight : Color3f(0.0f);
+}
 
 // A uniform number in [0, 1) made from the bits of a 2D sample, for a BSDF whose sample() needs a
 // third number (a lobe choice that depends on the sampled microfacet). Being discontinuous

@@ -197,6 +197,13 @@ static bool isWithin(const std::filesystem::path& path, const std::filesystem::p
     return !relative.empty() && *relative.begin() != "..";
 }
 
+void PropertyList::rethrowHere(const Error& e) const {
+    const std::string message = e.what();
+    if (message.rfind(m_source, 0) == 0) throw;
+    if (dynamic_cast<const ResourceLimitError*>(&e)) failBeyondLimit("%s", message);
+    fail("%s", message);
+}
+
 std::string PropertyList::resolvePath(const std::string& path) const {
     namespace fs = std::filesystem;
     const fs::path written(path);

@@ -105,6 +105,9 @@ class PropertyList {
     [[noreturn]] void fail(const absl::FormatSpec<Args...>& format, const Args&... args) const {
         throw Error(m_source + ": " + absl::StrFormat(format, args...));
     }
+    // Rethrows an error met reading a file for this list's plugin, named at the list: unchanged
+    // when it names the list's source already, as a ResourceLimitError when it is one.
+    [[noreturn]] void rethrowHere(const Error& e) const;
     // The same for a value that is well formed but asks for more memory or size than allowed
     // (the farm answers it with RESOURCE_EXHAUSTED, not INVALID_ARGUMENT).
     template <typename... Args>

@@ -28,6 +28,7 @@
 
 #include "common/core/color.h"
 
+#include <array>
 #include <optional>
 #include <string_view>
 #include <vector>
@@ -35,6 +36,14 @@
 namespace alphorn {
 
 enum class SpectrumUse { Reflectance, Unbounded, Illuminant };
+
+// A metal's published optical constants, rows of (wavelength in micrometres, n, k), to which
+// the named conductor spectra below are fitted (the publications are named at the table).
+struct MeasuredMetal {
+    const char* name;
+    std::vector<std::array<double, 3>> rows;
+};
+const std::vector<MeasuredMetal>& measuredMetals();
 
 // The linear sRGB of one of pbrt-v4's named spectra, or nothing for a name this table does not
 // know. Known: metal-{Au,Ag,Al,Cu,CuZn,MgO,TiO2}-{eta,k} (the conductor fits above, whatever

@@ -179,10 +179,7 @@ class EnvironmentLight : public InfiniteEmitter {
             else
                 props.fail("unsupported environment map \"%s\" (expected .exr or .pfm)", path);
         } catch (const Error& e) {
-            const std::string message = e.what();
-            if (message.rfind(props.source(), 0) == 0) throw;
-            if (dynamic_cast<const ResourceLimitError*>(&e)) props.failBeyondLimit("%s", message);
-            props.fail("%s", message);
+            props.rethrowHere(e);
         }
         if (m_image.width <= 0 || m_image.height <= 0)
             props.fail("the environment map \"%s\" is empty", path);

@@ -47,16 +47,10 @@ bool swapsHandedness(const Eigen::Matrix4d& m) {
     return m.block<3, 3>(0, 0).determinant() < 0.0;
 }
 
-// A mesh's surface area, summed in double before it is activated (it knows its area after).
-double triangleArea(const Mesh& mesh) {
+// A mesh's surface area before it is activated (it knows its area after), summed in double.
+double surfaceAreaOf(const Mesh& mesh) {
     double area = 0.0;
-    for (uint32_t t = 0; t < mesh.triangleCount(); ++t) {
-        const auto face = mesh.faces().col(t);
-        const Eigen::Vector3d a = mesh.positions().col(face(0)).cast<double>(),
-                              b = mesh.positions().col(face(1)).cast<double>(),
-                              c = mesh.positions().col(face(2)).cast<double>();
-        area += 0.5 * (b - a).cross(c - a).norm();
-    }
+    for (uint32_t t = 0; t < mesh.triangleCount(); ++t) area += mesh.triangleArea(t);
     return area;
 }
 
@@ -996,7 +990,7 @@ class SceneCreator {
             // pbrt-v4 scales L (normalised to luminance 1) so that the light emits `power`:
             // power = L scale pi area (2 if two-sided).
             const float power = p.getFloat("power", 0.0f);
-            const double area = triangleArea(mesh);
+            const double area = surfaceAreaOf(mesh);
             if (!(power >= 0.0f) || !(area > 0.0))
                 failAt(p.find("power")->location,
                        light.describe() + ": \"power\" needs a power >= 0 and a shape of area > 0");

@@ -3,6 +3,7 @@
 #include "common/core/error.h"
 #include "common/core/spectrum.h"
 #include "common/core/warning.h"
+#include "common/scene/parser.h"
 
 #include <absl/strings/str_cat.h>
 #include <absl/strings/str_format.h>
@@ -12,7 +13,6 @@
 #include <cmath>
 #include <deque>
 #include <filesystem>
-#include <fstream>
 #include <set>
 #include <sstream>
 
@@ -70,20 +70,6 @@ class Parser {
         if (m_inInstance) failAt(m_instanceStart, "ObjectBegin without a matching ObjectEnd");
         checkReferences();
         return std::move(m_scene);
-    }
-
-    std::string readFile(const std::string& path, const std::string& name) {
-        std::error_code error;
-        const auto status = std::filesystem::status(path, error);
-        if (std::filesystem::is_directory(status))
-            throw Error(name + ": is a directory, not a scene file");
-        if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
-            throw Error(name + ": is a named pipe, socket or device, not a scene file");
-        std::ifstream file(path, std::ios::binary);
-        if (!file) throw Error(name + ": cannot open the scene file: " + std::strerror(errno));
-        std::stringstream buffer;
-        buffer << file.rdbuf();
-        return buffer.str();
     }
 
   private:
@@ -246,7 +232,7 @@ class Parser {
         std::string path, text;
         try {
             path = m_resolver.resolvePath(file);
-            text = readFile(path, file);
+            text = readSceneFileText(path, file);
         } catch (const Error& e) {
             failAt(p.location, absl::StrFormat("\"%s\": \"%s\" is neither a named spectrum nor a "
                                                "readable spectrum file: %s",
@@ -754,7 +740,7 @@ class Parser {
         }
         std::string text;
         try {
-            text = readFile(path, file);
+            text = readSceneFileText(path, file);
         } catch (const Error& e) {
             failAt(token.location, e.what());
         }
@@ -809,7 +795,7 @@ SceneDescription parseSceneDescriptionText(std::string text, const std::string& 
 SceneDescription parseSceneDescription(const std::string& path, const std::string& displayName,
                                        const PropertyList& resolver) {
     Parser parser(displayName, resolver);
-    return parser.run(parser.readFile(path, displayName), displayName);
+    return parser.run(readSceneFileText(path, displayName), displayName);
 }
 
 }  // namespace alphorn::pbrt

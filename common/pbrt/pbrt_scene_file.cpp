@@ -32,27 +32,13 @@ Setup setUp(const std::string& path, const FileReferencePolicy& policy, SceneUse
     return setup;
 }
 
-// Messages inside a confinement root name files relative to it.
-template <typename Function>
-auto withNaming(const SceneFileNaming& naming, Function function) {
-    try {
-        return function();
-    } catch (const ResourceLimitError& e) {
-        throw ResourceLimitError(naming.withoutConfinementRoot(e.what()));
-    } catch (const Error& e) {
-        throw Error(naming.withoutConfinementRoot(e.what()));
-    } catch (const std::filesystem::filesystem_error& e) {
-        throw Error(naming.withoutConfinementRoot(e.what()));
-    }
-}
-
 }  // namespace
 
 ParseResult parsePbrtSceneFile(const std::string& path, const FileReferencePolicy& policy,
                                const SceneOverrides& overrides, const SceneLimits& limits,
                                SceneUse use) {
     Setup setup = setUp(path, policy, use);
-    return withNaming(setup.naming, [&] {
+    return setup.naming.confiningMessages([&] {
         const SceneDescription description =
             parseSceneDescription(setup.naming.path, setup.naming.name, setup.base);
         // pbrt-v4's format has no $name parameters: every -D is unused.
@@ -70,7 +56,7 @@ ParseResult parsePbrtSceneFile(const std::string& path, const FileReferencePolic
 std::vector<std::string> listPbrtSceneFiles(const std::string& path,
                                             const FileReferencePolicy& policy) {
     Setup setup = setUp(path, policy, SceneUse::Check);
-    return withNaming(setup.naming, [&] {
+    return setup.naming.confiningMessages([&] {
         const SceneDescription description =
             parseSceneDescription(setup.naming.path, setup.naming.name, setup.base);
         listEntityFiles(description, setup.base);

@@ -163,15 +163,8 @@ void tracePhotonThroughMedia(const Scene& scene, Sampler& sampler,
         // A photon from infinity starts on a disk outside the box media end at, with no surface
         // before the box: it starts where it enters the box, so that media attenuate it over the
         // same stretch as the camera rays that see the light directly and the shadow rays.
-        float tNear = 0.0f, tFar = Infinity;
-        for (int axis = 0; axis < 3; ++axis) {
-            const float inv = 1.0f / ray.d[axis];
-            float t0 = (mediaBox.min()[axis] - ray.o[axis]) * inv;
-            float t1 = (mediaBox.max()[axis] - ray.o[axis]) * inv;
-            if (t0 > t1) std::swap(t0, t1);
-            if (t0 > tNear) tNear = t0;
-            if (t1 < tFar) tFar = t1;
-        }
+        float tNear, tFar;
+        boxInterval(mediaBox, ray, tNear, tFar);
         if (!(tNear <= tFar)) return;  // misses the scene
         ray.o = ray(tNear);
     }

@@ -26,9 +26,11 @@ namespace alphorn {
 // the same film as path_mats / path_mis, byte for byte, at their cost (bench_feature_cost).
 bool needsVolumetricPaths(const Scene& scene);
 
-// The distance along `ray` (unit direction) at which it leaves `box`; 0 when it never is inside.
-inline float exitDistance(const Eigen::AlignedBox3f& box, const Ray3f& ray) {
-    float tNear = 0.0f, tFar = Infinity;
+// The stretch [tNear, tFar] (tNear >= 0) of `ray` inside `box`; tNear > tFar when it misses it.
+inline void boxInterval(const Eigen::AlignedBox3f& box, const Ray3f& ray, float& tNear,
+                        float& tFar) {
+    tNear = 0.0f;
+    tFar = Infinity;
     for (int axis = 0; axis < 3; ++axis) {
         const float inv = 1.0f / ray.d[axis];
         float t0 = (box.min()[axis] - ray.o[axis]) * inv;
@@ -38,6 +40,12 @@ inline float exitDistance(const Eigen::AlignedBox3f& box, const Ray3f& ray) {
         if (t0 > tNear) tNear = t0;
         if (t1 < tFar) tFar = t1;
     }
+}
+
+// The distance along `ray` (unit direction) at which it leaves `box`; 0 when it never is inside.
+inline float exitDistance(const Eigen::AlignedBox3f& box, const Ray3f& ray) {
+    float tNear, tFar;
+    boxInterval(box, ray, tNear, tFar);
     return tNear <= tFar ? std::max(tFar, 0.0f) : 0.0f;
 }
 

@@ -87,33 +87,13 @@ class Parser {
     const std::string& name() const { return m_name; }
 
     ParseResult parse() {
-        if (m_policy.confinementRoot.empty()) return parseFile();
-        try {
-            return parseFile();
-        } catch (const ResourceLimitError& e) {
-            throw ResourceLimitError(withoutConfinementRoot(e.what()));
-        } catch (const Error& e) {
-            throw Error(withoutConfinementRoot(e.what()));
-        } catch (const std::filesystem::filesystem_error& e) {
-            throw Error(withoutConfinementRoot(e.what()));
-        }
+        return SceneFileNaming{m_path, m_name, m_policy}.confiningMessages(
+            [&] { return parseFile(); });
     }
 
   private:
     ParseResult parseFile() {
-        // Checked before opening: opening a named pipe waits for a writer, and a device such as
-        // /dev/zero never ends.
-        std::error_code statusError;
-        const auto status = std::filesystem::status(m_path, statusError);
-        if (std::filesystem::is_directory(status))
-            fail("%s: is a directory, not a scene file", m_name);
-        if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
-            fail("%s: is a named pipe, socket or device, not a scene file", m_name);
-        std::ifstream file(m_path, std::ios::binary);
-        if (!file) fail("%s: cannot open the scene file: %s", m_name, std::strerror(errno));
-        std::stringstream buffer;
-        buffer << file.rdbuf();
-        m_text = buffer.str();
+        m_text = readSceneFileText(m_path, m_name);
         m_baseDirectory = std::filesystem::path(m_path).parent_path().string();
 
         pugi::xml_document doc;
@@ -280,10 +260,6 @@ class Parser {
             "than %s; this mesh (%s) has %u triangles and %u vertices",
             location(beyond.offset_debug()), meshCount, triangles, vertices, formatBytes(bytes),
             allowed, beyondFile, beyondCounts.triangles, beyondCounts.vertices));
-    }
-
-    std::string withoutConfinementRoot(std::string message) const {
-        return SceneFileNaming{m_path, m_name, m_policy}.withoutConfinementRoot(std::move(message));
     }
 
     std::string location(ptrdiff_t offset) const {
@@ -692,6 +668,19 @@ std::string SceneFileNaming::withoutConfinementRoot(std::string message) const {
     for (const std::string& root : roots)
         if (root != "/") message = absl::StrReplaceAll(message, {{root + "/", ""}, {root, "."}});
     return message;
+}
+
+std::string readSceneFileText(const std::string& path, const std::string& name) {
+    std::error_code statusError;
+    const auto status = std::filesystem::status(path, statusError);
+    if (std::filesystem::is_directory(status)) fail("%s: is a directory, not a scene file", name);
+    if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
+        fail("%s: is a named pipe, socket or device, not a scene file", name);
+    std::ifstream file(path, std::ios::binary);
+    if (!file) fail("%s: cannot open the scene file: %s", name, std::strerror(errno));
+    std::stringstream buffer;
+    buffer << file.rdbuf();
+    return buffer.str();
 }
 
 bool isPbrtSceneFile(const std::string& path) {

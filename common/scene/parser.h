@@ -4,6 +4,7 @@
 
 #include "common/core/object.h"
 
+#include <filesystem>
 #include <map>
 #include <optional>
 
@@ -49,9 +50,29 @@ struct SceneFileNaming {
     // The message without the confinement root's path, which is where the server keeps the
     // bundle and none of the user's business.
     std::string withoutConfinementRoot(std::string message) const;
+
+    // Runs `function`, throwing its errors (of either kind) with withoutConfinementRoot's message.
+    template <typename Function>
+    auto confiningMessages(Function function) const {
+        if (policy.confinementRoot.empty()) return function();
+        try {
+            return function();
+        } catch (const ResourceLimitError& e) {
+            throw ResourceLimitError(withoutConfinementRoot(e.what()));
+        } catch (const Error& e) {
+            throw Error(withoutConfinementRoot(e.what()));
+        } catch (const std::filesystem::filesystem_error& e) {
+            throw Error(withoutConfinementRoot(e.what()));
+        }
+    }
 };
 // Throws Error when the file lies outside the policy's confinement root.
 SceneFileNaming nameSceneFile(const std::string& path, const FileReferencePolicy& policy);
+
+// The text of the scene file (or a file it includes) at `path`, named `name` in messages; a
+// directory, named pipe, socket or device is refused before it is opened (opening a pipe waits
+// for a writer, and /dev/zero never ends).
+std::string readSceneFileText(const std::string& path, const std::string& name);
 
 // Whether a scene file is in pbrt-v4's format (by its extension, .pbrt), not Nori XML.
 bool isPbrtSceneFile(const std::string& path);

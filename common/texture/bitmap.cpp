@@ -52,10 +52,7 @@ class BitmapTexture : public Texture {
                 props.fail("unsupported texture file \"%s\" (expected .exr or .png)", m_path);
             }
         } catch (const Error& e) {
-            const std::string message = e.what();
-            if (message.rfind(props.source(), 0) == 0) throw;
-            if (dynamic_cast<const ResourceLimitError*>(&e)) props.failBeyondLimit("%s", message);
-            props.fail("%s", message);
+            props.rethrowHere(e);
         }
         if (m_image.width <= 0 || m_image.height <= 0)
             props.fail("the texture \"%s\" is empty", m_path);
